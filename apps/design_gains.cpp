@@ -1,0 +1,36 @@
+// design-gains: observer gains for a target convergence rate (or the rate a given gain certifies).
+#include "obsgain/cli.hpp"
+#include "obsgain/report.hpp"
+#include "obsgain/robots.hpp"
+
+#include <fstream>
+#include <iostream>
+
+int main(int argc, char** argv) {
+  CLI::App app{"Design certified velocity-observer gains (saturated Luenberger observer)", "design-gains"};
+  obsgain::DesignArguments arguments;
+  obsgain::add_design_options(app, arguments);
+  std::string json_path;
+  auto* json = app.add_option("--json", json_path, "write JSON to stdout, or to FILE")->expected(0, 1);
+  return obsgain::run_app(app, argc, argv, [&] {
+    const obsgain::DesignOptions options = obsgain::to_design_options(arguments);
+    const obsgain::Model model = obsgain::load_robot(arguments.robot);
+    const obsgain::Design design = obsgain::design_gains(model, options);
+    const std::string text = obsgain::to_json(design).dump(2) + "\n";
+    if (json->count() > 0 && json_path.empty()) {
+      std::cout << text;
+    } else {
+      std::cout << obsgain::format_report(design);
+      if (json->count() > 0) {
+        std::ofstream file(json_path);
+        if (!(file << text)) throw obsgain::InputError("cannot write JSON to '" + json_path + "'");
+      }
+    }
+    const bool asked_for_rate = options.gamma.has_value();
+    if (asked_for_rate && !design.selected().certified) {
+      std::cerr << "design-gains: error: the design does not certify gamma = " << *options.gamma << "\n";
+      return 1;
+    }
+    return 0;
+  });
+}

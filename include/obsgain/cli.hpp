@@ -1,0 +1,36 @@
+// The command-line options shared by design-gains, monte-carlo and verify-bounds, and their strict
+// parsing into library options. The apps only wire these to CLI11 and print.
+#pragma once
+
+#include "obsgain/design.hpp"
+
+#include <CLI/CLI.hpp>
+
+#include <functional>
+#include <string>
+
+namespace obsgain {
+
+// Raw text of the design options, parsed by to_design_options so that every error names the bad value.
+struct DesignArguments {
+  std::string robot = "pendubot";
+  std::string vmax, gamma, theta, alpha, beta, L, rate_margin;
+  std::string lipschitz = "joint";
+  std::string certificate = "tight";
+  bool optimize_shape = false;
+};
+
+void add_design_options(CLI::App& app, DesignArguments& arguments);
+
+DesignOptions to_design_options(const DesignArguments& arguments);
+
+// A finite number, or InputError "<name> = '<text>' is not a number".
+double parse_number(const std::string& name, const std::string& text);
+// "1,2.5,3" -> (1, 2.5, 3).
+Eigen::VectorXd parse_number_list(const std::string& name, const std::string& text);
+
+// Runs an app's body: bad input (InputError, CLI11 parse errors) prints one line on stderr and exits 2;
+// --help prints and exits 0; anything else unexpected prints and exits 3.
+int run_app(CLI::App& app, int argc, char** argv, const std::function<int()>& body);
+
+}  // namespace obsgain

@@ -1,0 +1,86 @@
+// design_gains: from a model and what the user asks (a target rate γ, or a gain θ to evaluate) to the
+// observer gains and their certificate, with every number the certificate rests on.
+#pragma once
+
+#include "obsgain/bounds.hpp"
+#include "obsgain/lyapunov.hpp"
+#include "obsgain/model.hpp"
+
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace obsgain {
+
+enum class CertificateKind { paper, tight };
+enum class LipschitzKind { paper, joint };
+
+struct DesignOptions {
+  std::optional<double> gamma;  // target rate: θ is the smallest gain that certifies it
+  std::optional<double> theta;  // or: evaluate this gain and report the rate it certifies
+  double alpha = 1.0;
+  double beta = 1.0;
+  bool optimize_shape = false;  // β = 1, best α for the chosen certificate (design notes §6)
+  LipschitzKind lipschitz = LipschitzKind::joint;
+  std::optional<double> L_override;  // e.g. the paper's 54.01
+  CertificateKind certificate = CertificateKind::tight;
+  // The tight certificate's rate is a supremum; its matrix P is computed at γ_sup (1 - rate_margin), which
+  // buys a finite, much smaller envelope constant k. A target-γ design raises θ so that γ itself is certified.
+  double rate_margin = 0.01;
+  Eigen::VectorXd velocity_bounds;  // empty: the model's own
+  BoundOptions bounds;
+};
+
+// One certificate evaluated for the design, so that paper and tight can be shown side by side.
+struct CertificateSummary {
+  double theta_star = 0.0;      // smallest θ for the target γ (for a θ evaluation: for any positive rate)
+  double theta = 0.0;           // the gain this certificate's design uses
+  double gamma = 0.0;           // the rate certified at θ (a supremum for tight; may be <= 0)
+  double envelope_gamma = 0.0;  // the rate of the envelope ||e(t)|| <= k ||e(0)|| e^{-γ t}
+  double k = 0.0;               // envelope constant, in the original error coordinates
+  double k1 = 0.0, k2 = 0.0;    // observer gains θα and θ²β
+  Eigen::Matrix2d P = Eigen::Matrix2d::Zero();  // V(e) = eᵀ (P ⊗ I_n) e
+  std::optional<double> lmi_max_eig;            // tight only: the LMI check, <= 0 certifies
+  bool certified = false;                       // a positive rate with a valid P
+};
+
+struct ShapeReport {
+  bool optimized = false;
+  std::string objective;               // what was minimised: "S_norm", "theta_star" or "-gamma"
+  double alpha_global = 0.0, alpha_polish = 0.0;          // NLopt DIRECT-L, then Ipopt
+  double objective_global = 0.0, objective_polish = 0.0;
+  int evaluations = 0;
+};
+
+struct Design {
+  std::string robot_name;
+  int dof = 0;
+  Eigen::VectorXd velocity_bounds;
+  BoundReport bounds;
+  double L_used = 0.0;
+  std::string L_source;  // "joint", "paper" or "override"
+  double alpha = 1.0, beta = 1.0;
+  ShapeReport shape;
+  LyapunovSolution lyapunov;
+  CertificateKind certificate = CertificateKind::tight;
+  std::optional<double> target_gamma;
+  double rate_margin = 0.0;
+  CertificateSummary paper, tight;
+  std::vector<std::string> warnings;
+  double wall_seconds = 0.0;
+
+  const CertificateSummary& selected() const { return certificate == CertificateKind::paper ? paper : tight; }
+};
+
+// Throws InputError for invalid options (non-positive or NaN numbers, both or neither of γ and θ, ...).
+void validate_design_options(const DesignOptions& options);
+
+Design design_gains(const Model& model, const DesignOptions& options);
+
+// Given the bounds, the rest of the design (used again by verify-bounds with certified bounds).
+Design design_from_bounds(const Model& model, const BoundReport& bounds, const DesignOptions& options);
+
+const char* to_string(CertificateKind kind);
+const char* to_string(LipschitzKind kind);
+
+}  // namespace obsgain

@@ -1,0 +1,29 @@
+#!/usr/bin/env bash
+# Installs the Debian packages obsgain needs, and only those that are missing.
+# Usage: scripts/install-deps.sh [--with-bench]   (root, or sudo available)
+set -euo pipefail
+
+packages=(
+  build-essential cmake pkg-config
+  libeigen3-dev libnlopt-cxx-dev coinor-libipopt-dev libboost-dev
+  libcli11-dev nlohmann-json3-dev libfmt-dev libgtest-dev libbenchmark-dev
+  gnuplot-nox
+)
+if [[ "${1:-}" == "--with-bench" ]]; then
+  packages+=(python3-numpy python3-scipy)
+fi
+
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if ((${#missing[@]} == 0)); then
+  exit 0
+fi
+
+sudo=""
+if [[ $(id -u) -ne 0 ]]; then sudo="sudo"; fi
+echo "installing: ${missing[*]}" >&2
+export DEBIAN_FRONTEND=noninteractive
+$sudo apt-get update -qq
+$sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null

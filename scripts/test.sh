@@ -1,0 +1,18 @@
+#!/usr/bin/env bash
+# One command: install what is missing, build, run the test suite, run it again under
+# AddressSanitizer + UndefinedBehaviorSanitizer, and check the command-line contract.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+jobs=$(nproc)
+scripts/install-deps.sh
+scripts/build.sh
+ctest --test-dir build --output-on-failure -j"$jobs"
+
+# Sanitizers: the library and tests only (the installed-package test links a plain consumer).
+cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DOBSGAIN_SANITIZE=ON -DOBSGAIN_BUILD_BENCHMARKS=OFF >/dev/null
+cmake --build build-asan -j"$jobs"
+ctest --test-dir build-asan --output-on-failure -j"$jobs" -E installed_package_consumer
+
+if [[ -x ../shared/contract-check ]]; then
+  ../shared/contract-check build
+fi

@@ -1,0 +1,93 @@
+#include "obsgain/cli.hpp"
+
+#include <fmt/format.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <iostream>
+#include <sstream>
+
+namespace obsgain {
+
+double parse_number(const std::string& name, const std::string& text) {
+  const char* begin = text.c_str();
+  char* end = nullptr;
+  const double value = std::strtod(begin, &end);
+  if (text.empty() || end == begin || *end != '\0') throw InputError(fmt::format("{} = '{}' is not a number", name, text));
+  if (!std::isfinite(value)) throw InputError(fmt::format("{} = {} must be finite", name, text));
+  return value;
+}
+
+Eigen::VectorXd parse_number_list(const std::string& name, const std::string& text) {
+  std::vector<double> values;
+  std::stringstream stream(text);
+  std::string item;
+  while (std::getline(stream, item, ',')) values.push_back(parse_number(name, item));
+  if (values.empty()) throw InputError(fmt::format("{} = '{}' is empty", name, text));
+  return Eigen::Map<Eigen::VectorXd>(values.data(), static_cast<Eigen::Index>(values.size()));
+}
+
+void add_design_options(CLI::App& app, DesignArguments& a) {
+  app.add_option("--robot", a.robot, "built-in robot name (pendubot) or model file")->capture_default_str();
+  app.add_option("--vmax", a.vmax, "velocity bounds V1,...,Vn [rad/s] (default: the model's)");
+  app.add_option("--gamma", a.gamma, "target convergence rate [1/s]: theta is the smallest gain certifying it");
+  app.add_option("--theta", a.theta, "evaluate this gain theta and report the certified rate");
+  app.add_option("--alpha", a.alpha, "observer shape alpha (default 1)");
+  app.add_option("--beta", a.beta, "observer shape beta (default 1)");
+  app.add_flag("--optimize-shape", a.optimize_shape, "beta = 1 and the best alpha for the certificate");
+  app.add_option("--lipschitz", a.lipschitz, "Lipschitz constant: joint (design notes 4) or paper")
+      ->check(CLI::IsMember({"joint", "paper"}))
+      ->capture_default_str();
+  app.add_option("--L", a.L, "override the Lipschitz constant (e.g. the paper's 54.01)");
+  app.add_option("--certificate", a.certificate, "tight (bounded-real lemma) or paper (Theorem 1)")
+      ->check(CLI::IsMember({"tight", "paper"}))
+      ->capture_default_str();
+  app.add_option("--rate-margin", a.rate_margin,
+                 "tight certificate: P is computed at gamma_sup (1 - margin) (default 0.01)");
+}
+
+DesignOptions to_design_options(const DesignArguments& a) {
+  DesignOptions o;
+  if (!a.gamma.empty()) o.gamma = parse_number("gamma", a.gamma);
+  if (!a.theta.empty()) o.theta = parse_number("theta", a.theta);
+  if (a.optimize_shape && (!a.alpha.empty() || !a.beta.empty()))
+    throw InputError("--optimize-shape chooses alpha and beta: do not give --alpha or --beta with it");
+  if (!a.alpha.empty()) o.alpha = parse_number("alpha", a.alpha);
+  if (!a.beta.empty()) o.beta = parse_number("beta", a.beta);
+  o.optimize_shape = a.optimize_shape;
+  o.lipschitz = a.lipschitz == "paper" ? LipschitzKind::paper : LipschitzKind::joint;
+  o.certificate = a.certificate == "paper" ? CertificateKind::paper : CertificateKind::tight;
+  if (!a.L.empty()) o.L_override = parse_number("L", a.L);
+  if (!a.rate_margin.empty()) o.rate_margin = parse_number("rate-margin", a.rate_margin);
+  if (!a.vmax.empty()) o.velocity_bounds = parse_number_list("vmax", a.vmax);
+  for (Eigen::Index i = 0; i < o.velocity_bounds.size(); ++i) {
+    if (o.velocity_bounds(i) <= 0.0)
+      throw InputError(fmt::format("vmax: velocity bound V{} = {} must be positive", i + 1, o.velocity_bounds(i)));
+  }
+  validate_design_options(o);
+  return o;
+}
+
+int run_app(CLI::App& app, int argc, char** argv, const std::function<int()>& body) {
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    std::cerr << app.get_name() << ": error: " << e.what() << "\n";
+    return 2;
+  }
+  try {
+    return body();
+  } catch (const InputError& e) {
+    std::cerr << app.get_name() << ": error: " << e.what() << "\n";
+    return 2;
+  } catch (const std::exception& e) {
+    std::cerr << app.get_name() << ": internal error: " << e.what() << "\n";
+    return 3;
+  }
+}
+
+}  // namespace obsgain

@@ -1,0 +1,162 @@
+#include "obsgain/design.hpp"
+
+#include "obsgain/certificate.hpp"
+#include "obsgain/optimize.hpp"
+
+#include <fmt/format.h>
+
+#include <chrono>
+#include <cmath>
+
+namespace obsgain {
+
+namespace {
+
+void require_positive(const char* name, double value) {
+  if (!std::isfinite(value) || value <= 0.0)
+    throw InputError(fmt::format("{} = {} must be positive and finite", name, value));
+}
+
+// β = 1, minimise objective(α) over α ∈ [1e-2, 1e2] (searched in log α): DIRECT-L, then Ipopt.
+ShapeReport optimize_alpha(const std::string& name, const std::function<double(double)>& objective) {
+  ShapeReport shape;
+  shape.optimized = true;
+  shape.objective = name;
+  const Objective negated = [&](const Eigen::VectorXd& x) { return -objective(std::exp(x(0))); };
+  const Eigen::VectorXd lower = Eigen::VectorXd::Constant(1, std::log(1e-2));
+  const Eigen::VectorXd upper = Eigen::VectorXd::Constant(1, std::log(1e2));
+  const OptimumPoint global = maximize_global(negated, lower, upper, 400);
+  const OptimumPoint polish = maximize_local(negated, global.x, lower, upper);
+  shape.alpha_global = std::exp(global.x(0));
+  shape.objective_global = -global.value;
+  shape.alpha_polish = std::exp(polish.x(0));
+  shape.objective_polish = -polish.value;
+  shape.evaluations = global.evaluations + polish.evaluations;
+  return shape;
+}
+
+CertificateSummary paper_summary(const Design& d, std::optional<double> target, std::optional<double> theta) {
+  CertificateSummary s;
+  const double S_norm = d.lyapunov.S_norm;
+  s.theta_star = paper_theta_star(S_norm, target.value_or(0.0), d.L_used);
+  s.theta = target ? s.theta_star : *theta;
+  s.gamma = target ? *target : paper_rate(S_norm, s.theta, d.L_used);
+  s.envelope_gamma = s.gamma;
+  s.k1 = s.theta * d.alpha;
+  s.k2 = s.theta * s.theta * d.beta;
+  s.P = paper_certificate_matrix(d.lyapunov.S2, s.theta);
+  s.k = envelope_constant(s.P);
+  s.certified = s.gamma > 0.0;
+  return s;
+}
+
+CertificateSummary tight_summary(const Design& d, std::optional<double> target, std::optional<double> theta) {
+  CertificateSummary s;
+  const double m = d.rate_margin;
+  s.theta_star = tight_theta_star(d.alpha, d.beta, target.value_or(0.0), d.L_used);
+  s.theta = target ? tight_theta_star(d.alpha, d.beta, *target / (1.0 - m), d.L_used) : *theta;
+  s.k1 = s.theta * d.alpha;
+  s.k2 = s.theta * s.theta * d.beta;
+  s.gamma = tight_rate(s.k1, s.k2, d.L_used);
+  s.envelope_gamma = target ? *target : s.gamma - m * std::abs(s.gamma);
+  const RiccatiCertificate cert = tight_certificate(s.k1, s.k2, d.L_used, s.envelope_gamma);
+  if (cert.exists) {
+    s.P = cert.P;
+    s.k = cert.k;
+    s.lmi_max_eig = cert.lmi_max_eig;
+  }
+  s.certified = cert.exists && s.envelope_gamma > 0.0;
+  return s;
+}
+
+}  // namespace
+
+const char* to_string(CertificateKind kind) { return kind == CertificateKind::paper ? "paper" : "tight"; }
+const char* to_string(LipschitzKind kind) { return kind == LipschitzKind::paper ? "paper" : "joint"; }
+
+void validate_design_options(const DesignOptions& options) {
+  if (options.gamma.has_value() == options.theta.has_value())
+    throw InputError("give exactly one of --gamma (target rate) and --theta (gain to evaluate)");
+  if (options.gamma) require_positive("gamma", *options.gamma);
+  if (options.theta) require_positive("theta", *options.theta);
+  if (!options.optimize_shape) {
+    require_positive("alpha", options.alpha);
+    require_positive("beta", options.beta);
+  }
+  if (options.L_override) require_positive("L", *options.L_override);
+  if (!std::isfinite(options.rate_margin) || options.rate_margin <= 0.0 || options.rate_margin >= 0.5)
+    throw InputError(fmt::format("rate margin = {} must lie in (0, 0.5)", options.rate_margin));
+}
+
+Design design_from_bounds(const Model& model, const BoundReport& bounds, const DesignOptions& options) {
+  validate_design_options(options);
+  Design d;
+  d.robot_name = model.name;
+  d.dof = model.dof();
+  d.velocity_bounds = bounds.velocity_bounds;
+  d.bounds = bounds;
+  d.certificate = options.certificate;
+  d.target_gamma = options.gamma;
+  d.rate_margin = options.rate_margin;
+
+  const double L_computed = options.lipschitz == LipschitzKind::joint ? bounds.L_joint.value : bounds.L_paper;
+  d.L_used = options.L_override.value_or(L_computed);
+  d.L_source = options.L_override ? "override" : to_string(options.lipschitz);
+  if (options.L_override) {
+    d.warnings.push_back(fmt::format("L overridden by the user: {} (the model gives L_joint = {:.6g}, L_paper = {:.6g})",
+                                     d.L_used, bounds.L_joint.value, bounds.L_paper));
+    if (d.L_used < bounds.L_joint.value)
+      d.warnings.push_back("the overriding L is below the model's L_joint: the certificate rests on the user's L, "
+                           "not on the model");
+  }
+  for (const auto* bound : {&bounds.M0, &bounds.B, &bounds.L_joint}) {
+    if (std::abs(bound->global_value - bound->polish_value) > 1e-6 * std::abs(bound->value))
+      d.warnings.push_back(fmt::format("bound search: NLopt ({:.10g}) and Ipopt ({:.10g}) disagree beyond 1e-6",
+                                       bound->global_value, bound->polish_value));
+  }
+
+  d.alpha = options.alpha;
+  d.beta = options.beta;
+  if (options.optimize_shape) {
+    d.beta = 1.0;
+    if (options.certificate == CertificateKind::paper) {
+      d.shape = optimize_alpha("S_norm", [](double a) { return observer_lyapunov(a, 1.0, 1).S_norm; });
+    } else if (options.gamma) {
+      d.shape = optimize_alpha("theta_star", [&](double a) { return tight_theta_star(a, 1.0, *options.gamma, d.L_used); });
+    } else {
+      d.shape = optimize_alpha("-gamma", [&](double a) {
+        return -tight_rate(*options.theta * a, *options.theta * *options.theta, d.L_used);
+      });
+    }
+    const bool polish_better = d.shape.objective_polish <= d.shape.objective_global;
+    d.alpha = polish_better ? d.shape.alpha_polish : d.shape.alpha_global;
+    const double scale = std::max(1.0, std::abs(d.shape.objective_global));
+    if (std::abs(d.shape.objective_global - d.shape.objective_polish) > 1e-6 * scale)
+      d.warnings.push_back("shape optimisation: NLopt and Ipopt disagree beyond 1e-6");
+  }
+  d.lyapunov = observer_lyapunov(d.alpha, d.beta, d.dof);
+
+  d.paper = paper_summary(d, options.gamma, options.theta);
+  d.tight = tight_summary(d, options.gamma, options.theta);
+
+  const CertificateSummary& s = d.selected();
+  if (!s.certified) {
+    d.warnings.push_back(fmt::format("theta = {:.6g} certifies no exponential rate with the {} certificate (gamma = {:.6g})",
+                                     s.theta, to_string(d.certificate), s.gamma));
+  }
+  return d;
+}
+
+Design design_gains(const Model& model, const DesignOptions& options) {
+  validate_design_options(options);
+  const auto start = std::chrono::steady_clock::now();
+  const Eigen::VectorXd V = options.velocity_bounds.size() ? options.velocity_bounds : model.velocity_bounds;
+  if (V.size() == 0)
+    throw InputError("model '" + model.name + "' gives no velocity bounds: pass --vmax V1,...,Vn");
+  validate_velocity_bounds(model, V);
+  Design d = design_from_bounds(model, compute_bounds(model, V, options.bounds), options);
+  d.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return d;
+}
+
+}  // namespace obsgain

@@ -1,0 +1,16 @@
+#include "obsgain/robots.hpp"
+
+#include "obsgain/planar_2r.hpp"
+
+namespace obsgain {
+
+std::vector<std::string> builtin_robots() { return {"pendubot"}; }
+
+Model load_robot(const std::string& name_or_file) {
+  if (name_or_file == "pendubot") return pendubot();
+  std::string known;
+  for (const auto& name : builtin_robots()) known += (known.empty() ? "" : ", ") + name;
+  throw InputError("unknown robot '" + name_or_file + "' (built in: " + known + ")");
+}
+
+}  // namespace obsgain

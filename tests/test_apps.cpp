@@ -1,0 +1,84 @@
+// The apps as a user runs them: exit codes, one-line errors on stderr, JSON on stdout.
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <array>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <sys/wait.h>
+
+namespace {
+
+struct AppRun {
+  int exit_code;
+  std::string out, err;
+};
+
+AppRun run(const std::string& app, const std::string& arguments) {
+  const std::string err_file = ::testing::TempDir() + "/obsgain_stderr.txt";
+  const std::string command = std::string(OBSGAIN_APP_DIR) + "/" + app + " " + arguments + " 2>" + err_file;
+  FILE* pipe = popen(command.c_str(), "r");
+  std::string out;
+  std::array<char, 4096> buffer{};
+  while (size_t n = fread(buffer.data(), 1, buffer.size(), pipe)) out.append(buffer.data(), n);
+  const int status = pclose(pipe);
+  std::ifstream err_stream(err_file);
+  std::stringstream err;
+  err << err_stream.rdbuf();
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out, err.str()};
+}
+
+void expect_refused(const std::string& arguments, const std::string& names) {
+  const AppRun r = run("design-gains", arguments);
+  EXPECT_EQ(r.exit_code, 2) << arguments;
+  EXPECT_TRUE(r.out.empty()) << arguments;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  EXPECT_NE(r.err.find(names), std::string::npos) << "'" << r.err << "' should name " << names;
+}
+
+TEST(DesignGainsApp, RefusesBadInputWithOneLineAndExit2) {
+  expect_refused("--gamma -1", "gamma = -1");
+  expect_refused("--gamma 0", "gamma = 0");
+  expect_refused("--gamma nan", "gamma");
+  expect_refused("--gamma abc", "gamma = 'abc'");
+  expect_refused("--theta -5", "theta = -5");
+  expect_refused("--gamma 1 --theta 100", "exactly one");
+  expect_refused("", "exactly one");
+  expect_refused("--gamma 1 --alpha 0", "alpha = 0");
+  expect_refused("--gamma 1 --beta -1", "beta = -1");
+  expect_refused("--gamma 1 --alpha nan", "alpha");
+  expect_refused("--gamma 1 --vmax 0,10", "V1 = 0");
+  expect_refused("--gamma 1 --vmax 10,-3", "V2 = -3");
+  expect_refused("--gamma 1 --vmax 10,nan", "vmax");
+  expect_refused("--gamma 1 --vmax 10,10,10", "3 bound(s)");
+  expect_refused("--robot nope --gamma 1", "unknown robot 'nope'");
+  expect_refused("--gamma 1 --L 0", "L = 0");
+  expect_refused("--gamma 1 --certificate best", "certificate");
+  expect_refused("--gamma 1 --optimize-shape --alpha 2", "optimize-shape");
+  expect_refused("--gamma 1 --no-such-flag", "no-such-flag");
+}
+
+TEST(DesignGainsApp, JsonOnStdoutAndTableOtherwise) {
+  const AppRun j = run("design-gains", "--robot pendubot --gamma 1.27 --json");
+  ASSERT_EQ(j.exit_code, 0) << j.err;
+  const nlohmann::json design = nlohmann::json::parse(j.out);
+  EXPECT_NEAR(design["bounds"]["L_joint"].get<double>(), 43.3475, 1e-5 * 43.3475);
+  const AppRun t = run("design-gains", "--robot pendubot --gamma 1.27");
+  ASSERT_EQ(t.exit_code, 0) << t.err;
+  EXPECT_NE(t.out.find("theta* (smallest gain)"), std::string::npos);
+  EXPECT_NE(t.out.find("certified: ||e(t)||"), std::string::npos);
+}
+
+TEST(DesignGainsApp, JsonToFile) {
+  const std::string path = ::testing::TempDir() + "/obsgain_design.json";
+  const AppRun r = run("design-gains", "--gamma 2 --certificate paper --json " + path);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  std::ifstream file(path);
+  const nlohmann::json design = nlohmann::json::parse(file);
+  EXPECT_EQ(design["certificate"], "paper");
+  EXPECT_DOUBLE_EQ(design["design"]["gamma"].get<double>(), 2.0);
+}
+
+}  // namespace
