@@ -1,9 +1,13 @@
 #include "obsgain/cli.hpp"
 
+#include "obsgain/report.hpp"
+#include "obsgain/robots.hpp"
+
 #include <fmt/format.h>
 
 #include <cmath>
 #include <cstdlib>
+#include <fstream>
 #include <iostream>
 #include <sstream>
 
@@ -66,6 +70,77 @@ DesignOptions to_design_options(const DesignArguments& a) {
   }
   validate_design_options(o);
   return o;
+}
+
+void add_monte_carlo_options(CLI::App& app, MonteCarloArguments& a) {
+  app.add_option("--design", a.design_file, "validate the design saved by design-gains --json FILE");
+  app.add_option("--trials", a.trials, "number of trials")->capture_default_str();
+  app.add_option("--seed", a.seed, "random seed; a trial's draw depends on (seed, trial index) only")->capture_default_str();
+  app.add_option("--horizon", a.horizon, "simulated time per trial [s]")->capture_default_str();
+  app.add_option("--threads", a.threads, "worker threads (0: all cores)")->capture_default_str();
+  app.add_option("--rtol", a.rtol, "integrator relative tolerance")->capture_default_str();
+  app.add_option("--atol", a.atol, "integrator absolute tolerance")->capture_default_str();
+  app.add_option("--scenario", a.scenario, "paper (lower equilibrium, u = 1.5 sin 100t) or random")
+      ->check(CLI::IsMember({"paper", "random"}))
+      ->capture_default_str();
+  app.add_option("--initial-errors", a.initial_errors, "practical (the paper's Remark), global, or both")
+      ->check(CLI::IsMember({"practical", "global", "both"}))
+      ->capture_default_str();
+}
+
+namespace {
+
+int parse_count(const std::string& name, const std::string& text, int minimum) {
+  const double value = parse_number(name, text);
+  if (value != std::floor(value) || value < minimum || value > 1e9)
+    throw InputError(fmt::format("{} = {} must be a whole number >= {}", name, text, minimum));
+  return static_cast<int>(value);
+}
+
+double parse_positive(const std::string& name, const std::string& text) {
+  const double value = parse_number(name, text);
+  if (value <= 0.0) throw InputError(fmt::format("{} = {} must be positive", name, text));
+  return value;
+}
+
+}  // namespace
+
+MonteCarloOptions to_monte_carlo_options(const MonteCarloArguments& a) {
+  MonteCarloOptions o;
+  o.trials = parse_count("trials", a.trials, 1);
+  const double seed = parse_number("seed", a.seed);
+  if (seed < 0 || seed != std::floor(seed) || seed > 9e15) throw InputError(fmt::format("seed = {} must be a whole number >= 0", a.seed));
+  o.seed = static_cast<std::uint64_t>(seed);
+  o.threads = parse_count("threads", a.threads, 0);
+  o.simulation.horizon = parse_positive("horizon", a.horizon);
+  o.simulation.rtol = parse_positive("rtol", a.rtol);
+  o.simulation.atol = parse_positive("atol", a.atol);
+  o.scenario = a.scenario == "paper" ? Scenario::paper : Scenario::random;
+  o.initial_errors = a.initial_errors == "practical" ? InitialErrors::practical
+                     : a.initial_errors == "global"  ? InitialErrors::global
+                                                     : InitialErrors::both;
+  return o;
+}
+
+ValidationTarget load_validation_target(const DesignArguments& design, const std::string& design_file) {
+  if (design_file.empty()) {
+    const DesignOptions options = to_design_options(design);
+    Model model = load_robot(design.robot);
+    const Design d = design_gains(model, options);
+    return {std::move(model), d.velocity_bounds, observer_certificate(d)};
+  }
+  std::ifstream file(design_file);
+  if (!file) throw InputError("cannot read design file '" + design_file + "'");
+  nlohmann::json j;
+  try {
+    file >> j;
+  } catch (const nlohmann::json::exception&) {
+    throw InputError("design file '" + design_file + "' is not valid JSON");
+  }
+  SavedDesign saved = saved_design_from_json(j);
+  Model model = load_robot(saved.robot);
+  validate_velocity_bounds(model, saved.velocity_bounds);
+  return {std::move(model), saved.velocity_bounds, saved.certificate};
 }
 
 int run_app(CLI::App& app, int argc, char** argv, const std::function<int()>& body) {

@@ -164,4 +164,101 @@ std::string format_report(const Design& d) {
   return out.str();
 }
 
+nlohmann::json to_json(const MonteCarloReport& r) {
+  const ObserverCertificate& c = r.certificate;
+  return {{"trials", r.trials},
+          {"passed", r.passed},
+          {"envelope_violations", r.envelope_violations},
+          {"lyapunov_violations", r.lyapunov_violations},
+          {"assumption_violations", r.assumption_violations},
+          {"worst_envelope_ratio", r.worst_envelope_ratio},
+          {"worst_lyapunov_ratio", r.worst_lyapunov_ratio},
+          {"decay_rate", {{"min", r.decay_rate.min}, {"median", r.decay_rate.median}, {"max", r.decay_rate.max}}},
+          {"certified_gamma", c.gamma},
+          {"k", c.k},
+          {"k1", c.k1},
+          {"k2", c.k2},
+          {"seed", r.seed},
+          {"threads", r.threads},
+          {"wall_seconds", r.wall_seconds},
+          {"scenario", r.scenario},
+          {"initial_errors", r.initial_errors},
+          {"horizon", r.simulation.horizon},
+          {"rtol", r.simulation.rtol},
+          {"atol", r.simulation.atol},
+          {"violation_tolerance", r.simulation.violation_tolerance},
+          {"numerical_floor", "none: the error is integrated as exp(rho) u with ||u|| = 1 and checked in log space"},
+          {"certificate_held", r.certificate_held()}};
+}
+
+std::string format_report(const MonteCarloReport& r) {
+  std::ostringstream out;
+  const ObserverCertificate& c = r.certificate;
+  out << fmt::format("monte-carlo: {} trials ({} scenario, {} initial errors, horizon {} s), seed {}, {} threads, {:.2f} s\n",
+                     r.trials, r.scenario, r.initial_errors, r.simulation.horizon, r.seed, r.threads, r.wall_seconds);
+  out << fmt::format("  certificate: ||e(t)|| <= {:.6g} ||e(0)|| exp(-{:.6g} t), gains k1 = {:.6g}, k2 = {:.6g}\n", c.k,
+                     c.gamma, c.k1, c.k2);
+  out << fmt::format("  passed {} | envelope violations {} | Lyapunov violations {} | left the velocity box {}\n",
+                     r.passed, r.envelope_violations, r.lyapunov_violations, r.assumption_violations);
+  out << fmt::format("  worst ratio to the envelope {:.4g}, to the Lyapunov level {:.4g} (violation above 1 + {:.0e})\n",
+                     r.worst_envelope_ratio, r.worst_lyapunov_ratio, r.simulation.violation_tolerance);
+  out << fmt::format("  fitted decay rate min {:.4g} / median {:.4g} / max {:.4g} 1/s against certified {:.4g}\n",
+                     r.decay_rate.min, r.decay_rate.median, r.decay_rate.max, c.gamma);
+  if (r.assumption_violations > 0)
+    out << fmt::format("  {} trial(s) left the velocity box: outside the theorem's assumption, they prove nothing\n",
+                       r.assumption_violations);
+  out << (r.certificate_held() ? "  verdict: no trajectory left the certified envelope\n"
+                               : "  verdict: CERTIFICATE VIOLATED\n");
+  return out.str();
+}
+
+void write_trials_csv(const MonteCarloReport& r, std::ostream& out) {
+  out << "trial,initial_errors,initial_error_norm,input_scale,left_velocity_box,max_velocity_ratio,"
+         "worst_envelope_ratio,worst_lyapunov_ratio,fitted_rate,final_log_error_ratio,steps\n";
+  for (const TrialRecord& t : r.records) {
+    out << fmt::format("{},{},{:.10g},{:.6g},{},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{}\n", t.index,
+                       t.global_error ? "global" : "practical", t.initial_error, t.input_scale,
+                       t.result.left_velocity_box ? 1 : 0, t.result.max_velocity_ratio, t.result.worst_envelope_ratio,
+                       t.result.worst_lyapunov_ratio, t.result.fitted_rate, t.result.final_log_error_ratio,
+                       t.result.steps);
+  }
+}
+
+void write_trajectory_csv(const std::vector<TrajectorySample>& samples, std::ostream& out) {
+  if (samples.empty()) return;
+  const auto n = samples.front().q.size();
+  out << "t";
+  for (const char* name : {"q", "v", "qhat", "vhat"})
+    for (Eigen::Index i = 0; i < n; ++i) out << "," << name << i + 1;
+  out << ",error_norm,envelope\n";
+  for (const TrajectorySample& s : samples) {
+    out << fmt::format("{:.9g}", s.t);
+    const Eigen::VectorXd qhat = s.q + s.e_q, vhat = s.v + s.e_v;
+    for (const Eigen::VectorXd* x : {&s.q, &s.v, &qhat, &vhat})
+      for (Eigen::Index i = 0; i < n; ++i) out << fmt::format(",{:.12g}", (*x)(i));
+    out << fmt::format(",{:.12g},{:.12g}\n", s.error_norm, s.envelope);
+  }
+}
+
+SavedDesign saved_design_from_json(const nlohmann::json& j) {
+  try {
+    SavedDesign saved;
+    saved.robot = j.at("robot").at("name").get<std::string>();
+    const auto bounds = j.at("velocity_bounds").get<std::vector<double>>();
+    saved.velocity_bounds = Eigen::Map<const Eigen::VectorXd>(bounds.data(), static_cast<Eigen::Index>(bounds.size()));
+    const nlohmann::json& d = j.at("design");
+    if (!d.at("certified").get<bool>()) throw InputError("the saved design is not certified: nothing to validate");
+    saved.certificate.k1 = d.at("k1").get<double>();
+    saved.certificate.k2 = d.at("k2").get<double>();
+    saved.certificate.gamma = d.at("envelope_gamma").get<double>();
+    saved.certificate.k = d.at("k").get<double>();
+    const auto P = d.at("P").get<std::vector<std::vector<double>>>();
+    if (P.size() != 2 || P[0].size() != 2 || P[1].size() != 2) throw InputError("design.P must be 2 x 2");
+    saved.certificate.P << P[0][0], P[0][1], P[1][0], P[1][1];
+    return saved;
+  } catch (const nlohmann::json::exception& e) {
+    throw InputError(std::string("not a design-gains JSON: ") + e.what());
+  }
+}
+
 }  // namespace obsgain

@@ -3,6 +3,7 @@
 #pragma once
 
 #include "obsgain/design.hpp"
+#include "obsgain/montecarlo.hpp"
 
 #include <CLI/CLI.hpp>
 
@@ -23,6 +24,24 @@ struct DesignArguments {
 void add_design_options(CLI::App& app, DesignArguments& arguments);
 
 DesignOptions to_design_options(const DesignArguments& arguments);
+
+struct MonteCarloArguments {
+  std::string design_file;
+  std::string trials = "1000", seed = "1", horizon = "1", threads = "0", rtol = "1e-8", atol = "1e-10";
+  std::string scenario = "random", initial_errors = "both";
+};
+
+void add_monte_carlo_options(CLI::App& app, MonteCarloArguments& arguments);
+
+MonteCarloOptions to_monte_carlo_options(const MonteCarloArguments& arguments);
+
+// What a validation runs against: a design computed from the design options, or one saved by design-gains.
+struct ValidationTarget {
+  Model model;
+  Eigen::VectorXd velocity_bounds;
+  ObserverCertificate certificate;
+};
+ValidationTarget load_validation_target(const DesignArguments& design, const std::string& design_file);
 
 // A finite number, or InputError "<name> = '<text>' is not a number".
 double parse_number(const std::string& name, const std::string& text);

@@ -2,9 +2,11 @@
 #pragma once
 
 #include "obsgain/design.hpp"
+#include "obsgain/montecarlo.hpp"
 
 #include <nlohmann/json.hpp>
 
+#include <ostream>
 #include <string>
 
 namespace obsgain {
@@ -18,5 +20,18 @@ nlohmann::json to_json(const Design& design);
 // The design as a table a control engineer reads: bounds and where they sit, S, both certificates side by
 // side, the chosen gains, and warnings.
 std::string format_report(const Design& design);
+
+nlohmann::json to_json(const MonteCarloReport& report);
+std::string format_report(const MonteCarloReport& report);
+void write_trials_csv(const MonteCarloReport& report, std::ostream& out);          // one row per trial
+void write_trajectory_csv(const std::vector<TrajectorySample>& samples, std::ostream& out);
+
+// What monte-carlo needs from design-gains' JSON: the robot, the velocity box and the certificate.
+struct SavedDesign {
+  std::string robot;
+  Eigen::VectorXd velocity_bounds;
+  ObserverCertificate certificate;
+};
+SavedDesign saved_design_from_json(const nlohmann::json& design_json);
 
 }  // namespace obsgain

@@ -1,0 +1,47 @@
+// monte-carlo: simulate plant and observer from randomised initial errors against the certified envelope.
+#include "obsgain/cli.hpp"
+#include "obsgain/report.hpp"
+
+#include <fstream>
+#include <iostream>
+#include <unistd.h>
+
+int main(int argc, char** argv) {
+  CLI::App app{"Validate a certified observer design by Monte Carlo simulation", "monte-carlo"};
+  obsgain::DesignArguments design;
+  obsgain::add_design_options(app, design);
+  obsgain::MonteCarloArguments arguments;
+  obsgain::add_monte_carlo_options(app, arguments);
+  std::string json_path, csv_path, trajectory_path;
+  auto* json = app.add_option("--json", json_path, "write JSON to stdout, or to FILE")->expected(0, 1);
+  app.add_option("--csv", csv_path, "write one row per trial to FILE");
+  app.add_option("--trajectory", trajectory_path, "write the time series of trial 0 to FILE");
+  return obsgain::run_app(app, argc, argv, [&] {
+    obsgain::MonteCarloOptions options = obsgain::to_monte_carlo_options(arguments);
+    options.progress = isatty(STDERR_FILENO) != 0;
+    const obsgain::ValidationTarget target = obsgain::load_validation_target(design, arguments.design_file);
+    const obsgain::MonteCarloReport report =
+        obsgain::run_monte_carlo(target.model, target.velocity_bounds, target.certificate, options);
+    if (json->count() > 0 && json_path.empty()) {
+      std::cout << obsgain::to_json(report).dump(2) << "\n";
+    } else {
+      std::cout << obsgain::format_report(report);
+      if (json->count() > 0) std::ofstream(json_path) << obsgain::to_json(report).dump(2) << "\n";
+    }
+    if (!csv_path.empty()) {
+      std::ofstream csv(csv_path);
+      if (!csv) throw obsgain::InputError("cannot write '" + csv_path + "'");
+      obsgain::write_trials_csv(report, csv);
+    }
+    if (!trajectory_path.empty()) {
+      std::ofstream out(trajectory_path);
+      if (!out) throw obsgain::InputError("cannot write '" + trajectory_path + "'");
+      std::vector<obsgain::TrajectorySample> samples;
+      const obsgain::TrialSetup trial = obsgain::make_trial(target.model, target.velocity_bounds, options, 0, 1.0);
+      obsgain::simulate_trial(target.model, target.certificate, target.velocity_bounds, trial.initial, trial.input,
+                              options.simulation, &samples);
+      obsgain::write_trajectory_csv(samples, out);
+    }
+    return report.certificate_held() ? 0 : 1;
+  });
+}

@@ -1,0 +1,77 @@
+// Validation of a design by simulation: many trials from randomised initial errors (and plant states and
+// inputs), each checked against the certificate's envelope and Lyapunov level, on all cores.
+#pragma once
+
+#include "obsgain/design.hpp"
+#include "obsgain/simulation.hpp"
+
+#include <string>
+#include <vector>
+
+namespace obsgain {
+
+enum class Scenario { paper, random };
+enum class InitialErrors { practical, global, both };
+
+struct MonteCarloOptions {
+  int trials = 1000;
+  std::uint64_t seed = 1;
+  int threads = 0;  // 0: all cores
+  Scenario scenario = Scenario::random;
+  InitialErrors initial_errors = InitialErrors::both;
+  SimulationOptions simulation;
+  double practical_position_error = 0.05;  // ||q̂(0) - q(0)|| bound of the practical set [rad]
+  double global_error_scale = 10.0;        // global set: |e_q| <= this [rad], |v̂(0)| <= this × V
+  int input_attempts = 4;                  // random scenario: input and initial perturbation quartered after each exit from V̄
+  bool progress = false;                   // a progress line on stderr
+};
+
+struct TrialRecord {
+  int index = 0;
+  bool global_error = false;  // from the global set (else the practical one)
+  double input_scale = 1.0;   // the amplitude factor of the attempt that was kept
+  double initial_error = 0.0;
+  TrialResult result;
+  bool envelope_violated = false, lyapunov_violated = false;
+};
+
+struct DecayRates {
+  double min = 0.0, median = 0.0, max = 0.0;
+};
+
+struct MonteCarloReport {
+  int trials = 0;
+  int passed = 0;  // inside the box, no violation
+  int envelope_violations = 0;
+  int lyapunov_violations = 0;
+  int assumption_violations = 0;  // left the velocity box: proves nothing either way
+  double worst_envelope_ratio = 0.0;
+  double worst_lyapunov_ratio = 0.0;
+  DecayRates decay_rate;  // fitted, over trials that stayed in the box
+  ObserverCertificate certificate;
+  std::uint64_t seed = 0;
+  int threads = 0;
+  double wall_seconds = 0.0;
+  std::string scenario, initial_errors;
+  SimulationOptions simulation;
+  std::vector<TrialRecord> records;
+
+  bool certificate_held() const { return envelope_violations == 0 && lyapunov_violations == 0; }
+};
+
+// The certificate a design delivers (its selected certificate's gains, envelope and P).
+ObserverCertificate observer_certificate(const Design& design);
+
+// The initial state and input of one trial: a pure function of (seed, index, attempt).
+struct TrialSetup {
+  TrialInitialState initial;
+  InputSignal input;
+  bool global_error = false;
+};
+TrialSetup make_trial(const Model& model, const Eigen::VectorXd& velocity_bounds, const MonteCarloOptions& options,
+                      int index, double input_scale);
+
+MonteCarloReport run_monte_carlo(const Model& model, const Eigen::VectorXd& velocity_bounds,
+                                 const ObserverCertificate& certificate, const MonteCarloOptions& options);
+
+}  // namespace obsgain

@@ -1,0 +1,203 @@
+#include "obsgain/simulation.hpp"
+
+#include <boost/numeric/odeint.hpp>
+
+#include <cmath>
+#include <limits>
+
+namespace obsgain {
+
+void InputSignal::evaluate(double t, Eigen::Ref<Eigen::VectorXd> u) const {
+  u = (amplitude.array() * (frequency.array() * t + phase.array()).sin()).rowwise().sum();
+}
+
+namespace {
+
+using State = std::vector<double>;
+
+// Right-hand side of (q, v, u_q, u_v, ρ) with e = exp(ρ) (u_q, u_v). Owns its work buffers, so that
+// evaluating it allocates nothing after construction.
+class ErrorSystem {
+ public:
+  ErrorSystem(const Model& model, const ObserverCertificate& c, const Eigen::VectorXd& V, const InputSignal& input)
+      : model_(model), c_(c), V_(V), input_(input), n_(model.dof()),
+        M_(n_, n_), llt_(n_), N_(n_, Eigen::MatrixXd::Zero(n_, n_)), u_(model.input_matrix.cols()),
+        rhs_(n_), a_(n_), g_(n_), delta_(n_), sum_(n_), dA_(n_) {}
+
+  void operator()(const State& x, State& dxdt, double t) {
+    const int n = n_;
+    const Eigen::Map<const Eigen::VectorXd> q(x.data(), n), v(x.data() + n, n), uq(x.data() + 2 * n, n),
+        uv(x.data() + 3 * n, n);
+    const double rho = x[4 * n];
+    Eigen::Map<Eigen::VectorXd> dq(dxdt.data(), n), dv(dxdt.data() + n, n), duq(dxdt.data() + 2 * n, n),
+        duv(dxdt.data() + 3 * n, n);
+
+    model_.dynamics->mass_matrix(q, M_);
+    llt_.compute(M_);
+    model_.dynamics->coriolis(q, v, a_);
+    model_.dynamics->gravity(q, g_);
+    input_.evaluate(t, u_);
+    rhs_.noalias() = model_.input_matrix * u_;
+    rhs_ -= a_ + g_;
+    rhs_.noalias() -= model_.friction * v;
+    llt_.solveInPlace(rhs_);
+    dq = v;
+    dv = rhs_;
+
+    // e^{-ρ} (A(q, σ(v + e_v)) - A(q, v)) = δ̃ᵀ N_i (σ(v + e_v) + v) with δ̃ = e^{-ρ}(σ(v + e_v) - v).
+    // Where neither v_i nor v_i + e_v_i saturates, δ̃_i = u_v_i exactly: no cancellation at any scale.
+    const double scale = std::exp(rho);
+    for (int i = 0; i < n; ++i) {
+      const double s = v(i) + scale * uv(i);
+      const double w = std::clamp(s, -V_(i), V_(i));
+      const bool linear = std::abs(s) <= V_(i) && std::abs(v(i)) <= V_(i);
+      delta_(i) = linear ? uv(i) : (w - v(i)) / scale;
+      sum_(i) = w + v(i);
+    }
+    model_.dynamics->coriolis_tensors(q, N_);
+    for (int i = 0; i < n; ++i) dA_(i) = delta_.dot(N_[i] * sum_);
+    dA_.noalias() += model_.friction * uv;
+    llt_.solveInPlace(dA_);
+    duq = -c_.k1 * uq + uv;
+    duv = -c_.k2 * uq - dA_;
+    // ρ' absorbs the growth of u so that ||u|| stays 1 (any choice is exact; this one keeps u well scaled).
+    const double growth = (uq.dot(duq) + uv.dot(duv)) / (uq.squaredNorm() + uv.squaredNorm());
+    duq -= growth * uq;
+    duv -= growth * uv;
+    dxdt[4 * n] = growth;
+  }
+
+ private:
+  const Model& model_;
+  const ObserverCertificate& c_;
+  const Eigen::VectorXd& V_;
+  const InputSignal& input_;
+  int n_;
+  Eigen::MatrixXd M_;
+  Eigen::LLT<Eigen::MatrixXd> llt_;
+  std::vector<Eigen::MatrixXd> N_;
+  Eigen::VectorXd u_, rhs_, a_, g_, delta_, sum_, dA_;
+};
+
+// The per-point checks, in log space: log ||e|| = ρ + log ||u||.
+class TrialMonitor {
+ public:
+  TrialMonitor(const ObserverCertificate& c, const Eigen::VectorXd& V, int n, const State& x0)
+      : c_(c), V_(V), n_(n) {
+    log_e0_ = log_error_norm(x0);
+    log_V0_ = log_lyapunov(x0);
+  }
+
+  // Returns false once the plant has left the velocity box.
+  bool check(double t, const State& x, TrialResult& r) {
+    const Eigen::Map<const Eigen::VectorXd> v(x.data() + n_, n_);
+    const double velocity_ratio = (v.array().abs() / V_.array()).maxCoeff();
+    r.max_velocity_ratio = std::max(r.max_velocity_ratio, velocity_ratio);
+    if (velocity_ratio > 1.0) {
+      r.left_velocity_box = true;
+      return false;
+    }
+    const double log_e = log_error_norm(x);
+    r.worst_envelope_ratio = std::max(r.worst_envelope_ratio, std::exp(log_e - log_e0_ - std::log(c_.k) + c_.gamma * t));
+    r.worst_lyapunov_ratio = std::max(r.worst_lyapunov_ratio, std::exp(log_lyapunov(x) - log_V0_ + 2.0 * c_.gamma * t));
+    // Least-squares fit of log ||e(t)/e(0)|| = -rate t + b.
+    const double y = log_e - log_e0_;
+    ++count_;
+    st_ += t;
+    stt_ += t * t;
+    sy_ += y;
+    sty_ += t * y;
+    r.final_log_error_ratio = y;
+    return true;
+  }
+
+  double fitted_rate() const {
+    const double denominator = count_ * stt_ - st_ * st_;
+    return denominator > 0.0 ? -(count_ * sty_ - st_ * sy_) / denominator : 0.0;
+  }
+
+  double log_error_norm(const State& x) const {
+    double sum = 0.0;
+    for (int i = 2 * n_; i < 4 * n_; ++i) sum += x[i] * x[i];
+    return x[4 * n_] + 0.5 * std::log(sum);
+  }
+
+ private:
+  double log_lyapunov(const State& x) const {
+    double value = 0.0;
+    for (int i = 0; i < n_; ++i) {
+      const double eq = x[2 * n_ + i], ev = x[3 * n_ + i];
+      value += c_.P(0, 0) * eq * eq + 2.0 * c_.P(0, 1) * eq * ev + c_.P(1, 1) * ev * ev;
+    }
+    return 2.0 * x[4 * n_] + std::log(value);
+  }
+
+  const ObserverCertificate& c_;
+  const Eigen::VectorXd& V_;
+  int n_;
+  double log_e0_ = 0.0, log_V0_ = 0.0;
+  double count_ = 0.0, st_ = 0.0, stt_ = 0.0, sy_ = 0.0, sty_ = 0.0;
+};
+
+}  // namespace
+
+TrialResult simulate_trial(const Model& model, const ObserverCertificate& certificate,
+                           const Eigen::VectorXd& velocity_bounds, const TrialInitialState& initial,
+                           const InputSignal& input, const SimulationOptions& options,
+                           std::vector<TrajectorySample>* trajectory) {
+  namespace odeint = boost::numeric::odeint;
+  const int n = model.dof();
+  const double e0 = std::sqrt(initial.e_q.squaredNorm() + initial.e_v.squaredNorm());
+  if (!(e0 > 0.0) || !std::isfinite(e0)) throw InputError("a trial needs a non-zero, finite initial error");
+
+  State x(4 * n + 1);
+  Eigen::Map<Eigen::VectorXd>(x.data(), n) = initial.q;
+  Eigen::Map<Eigen::VectorXd>(x.data() + n, n) = initial.v;
+  Eigen::Map<Eigen::VectorXd>(x.data() + 2 * n, n) = initial.e_q / e0;
+  Eigen::Map<Eigen::VectorXd>(x.data() + 3 * n, n) = initial.e_v / e0;
+  x[4 * n] = std::log(e0);
+
+  ErrorSystem system(model, certificate, velocity_bounds, input);
+  TrialMonitor monitor(certificate, velocity_bounds, n, x);
+  TrialResult result;
+  State sample(x.size());
+  const auto record = [&](double t, const State& state) {
+    const bool inside = monitor.check(t, state, result);
+    if (trajectory) {
+      const double scale = std::exp(state[4 * n]);
+      TrajectorySample s{t,
+                         Eigen::Map<const Eigen::VectorXd>(state.data(), n),
+                         Eigen::Map<const Eigen::VectorXd>(state.data() + n, n),
+                         scale * Eigen::Map<const Eigen::VectorXd>(state.data() + 2 * n, n),
+                         scale * Eigen::Map<const Eigen::VectorXd>(state.data() + 3 * n, n),
+                         std::exp(monitor.log_error_norm(state)),
+                         certificate.k * e0 * std::exp(-certificate.gamma * t)};
+      trajectory->push_back(std::move(s));
+    }
+    return inside;
+  };
+
+  auto stepper = odeint::make_dense_output(options.atol, options.rtol, odeint::runge_kutta_dopri5<State>());
+  stepper.initialize(x, 0.0, std::min(1e-5, options.horizon));
+  if (!record(0.0, x)) return result;
+  double next_grid = options.grid_step;
+  while (stepper.current_time() < options.horizon) {
+    stepper.do_step(std::ref(system));
+    ++result.steps;
+    const double t = std::min(stepper.current_time(), options.horizon);
+    for (; next_grid < t; next_grid += options.grid_step) {
+      stepper.calc_state(next_grid, sample);
+      if (!record(next_grid, sample)) return result;
+    }
+    if (stepper.current_time() <= options.horizon) {
+      if (!record(t, stepper.current_state())) return result;
+    } else {
+      stepper.calc_state(options.horizon, sample);
+      if (!record(options.horizon, sample)) return result;
+    }
+  }
+  result.fitted_rate = monitor.fitted_rate();
+  return result;
+}
+
+}  // namespace obsgain
