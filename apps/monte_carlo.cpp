@@ -26,7 +26,11 @@ int main(int argc, char** argv) {
       std::cout << obsgain::to_json(report).dump(2) << "\n";
     } else {
       std::cout << obsgain::format_report(report);
-      if (json->count() > 0) std::ofstream(json_path) << obsgain::to_json(report).dump(2) << "\n";
+      if (json->count() > 0) {
+        std::ofstream file(json_path);
+        if (!(file << obsgain::to_json(report).dump(2) << "\n"))
+          throw obsgain::InputError("cannot write JSON to '" + json_path + "'");
+      }
     }
     if (!csv_path.empty()) {
       std::ofstream csv(csv_path);
@@ -36,11 +40,8 @@ int main(int argc, char** argv) {
     if (!trajectory_path.empty()) {
       std::ofstream out(trajectory_path);
       if (!out) throw obsgain::InputError("cannot write '" + trajectory_path + "'");
-      std::vector<obsgain::TrajectorySample> samples;
-      const obsgain::TrialSetup trial = obsgain::make_trial(target.model, target.velocity_bounds, options, 0, 1.0);
-      obsgain::simulate_trial(target.model, target.certificate, target.velocity_bounds, trial.initial, trial.input,
-                              options.simulation, &samples);
-      obsgain::write_trajectory_csv(samples, out);
+      obsgain::write_trajectory_csv(
+          obsgain::trial_trajectory(target.model, target.velocity_bounds, target.certificate, options, 0), out);
     }
     return report.certificate_held() ? 0 : 1;
   });

@@ -76,6 +76,13 @@ TrialSetup make_trial(const Model& model, const Eigen::VectorXd& V, const MonteC
       }
     }
   }
+  if (options.scenario == Scenario::paper && index == 0) {
+    // Trial 0 of the paper scenario is the paper's own run: observer started at (-π/2, 0, 2, 2), i.e.
+    // e_q = 0, e_v = (2, 2) (the paper's Fig. 2).
+    setup.initial.e_q = Eigen::VectorXd::Zero(n);
+    setup.initial.e_v = Eigen::VectorXd::Constant(n, 2.0);
+    return setup;
+  }
   setup.global_error = options.initial_errors == InitialErrors::global ||
                        (options.initial_errors == InitialErrors::both && index % 2 == 1);
   if (setup.global_error) {
@@ -89,6 +96,15 @@ TrialSetup make_trial(const Model& model, const Eigen::VectorXd& V, const MonteC
     setup.initial.e_v = uniform_box(rng, V) - setup.initial.v;
   }
   return setup;
+}
+
+std::vector<TrajectorySample> trial_trajectory(const Model& model, const Eigen::VectorXd& V,
+                                               const ObserverCertificate& certificate,
+                                               const MonteCarloOptions& options, int index) {
+  std::vector<TrajectorySample> samples;
+  const TrialSetup trial = make_trial(model, V, options, index, 1.0);
+  simulate_trial(model, certificate, V, trial.initial, trial.input, options.simulation, &samples);
+  return samples;
 }
 
 MonteCarloReport run_monte_carlo(const Model& model, const Eigen::VectorXd& V, const ObserverCertificate& certificate,

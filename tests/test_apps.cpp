@@ -30,8 +30,8 @@ AppRun run(const std::string& app, const std::string& arguments) {
   return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out, err.str()};
 }
 
-void expect_refused(const std::string& arguments, const std::string& names) {
-  const AppRun r = run("design-gains", arguments);
+void expect_refused(const std::string& arguments, const std::string& names, const std::string& app = "design-gains") {
+  const AppRun r = run(app, arguments);
   EXPECT_EQ(r.exit_code, 2) << arguments;
   EXPECT_TRUE(r.out.empty()) << arguments;
   EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
@@ -79,6 +79,44 @@ TEST(DesignGainsApp, JsonToFile) {
   const nlohmann::json design = nlohmann::json::parse(file);
   EXPECT_EQ(design["certificate"], "paper");
   EXPECT_DOUBLE_EQ(design["design"]["gamma"].get<double>(), 2.0);
+}
+
+TEST(MonteCarloApp, ValidatesASavedDesign) {
+  const std::string design = ::testing::TempDir() + "/obsgain_mc_design.json";
+  ASSERT_EQ(run("design-gains", "--gamma 1.27 --json " + design).exit_code, 0);
+  const std::string csv = ::testing::TempDir() + "/obsgain_trials.csv";
+  const std::string trajectory = ::testing::TempDir() + "/obsgain_trajectory.csv";
+  const AppRun r = run("monte-carlo", "--design " + design + " --trials 20 --seed 3 --horizon 0.5 --json --csv " + csv +
+                                          " --trajectory " + trajectory);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_TRUE(r.err.empty()) << "no progress line when stderr is not a terminal: " << r.err;
+  const nlohmann::json report = nlohmann::json::parse(r.out);
+  EXPECT_EQ(report["trials"], 20);
+  EXPECT_EQ(report["envelope_violations"], 0);
+  EXPECT_DOUBLE_EQ(report["certified_gamma"].get<double>(), 1.27);
+  std::ifstream rows(csv);
+  EXPECT_EQ(std::count(std::istreambuf_iterator<char>(rows), {}, '\n'), 21);
+  std::ifstream series(trajectory);
+  std::string header;
+  std::getline(series, header);
+  EXPECT_EQ(header, "t,q1,q2,v1,v2,qhat1,qhat2,vhat1,vhat2,error_norm,envelope");
+}
+
+TEST(MonteCarloApp, ExitOneWhenTheCertificateIsViolated) {
+  const AppRun r = run("monte-carlo", "--gamma 1 --L 0.01 --trials 20 --horizon 3 --initial-errors practical");
+  EXPECT_EQ(r.exit_code, 1) << r.out << r.err;
+  EXPECT_NE(r.out.find("CERTIFICATE VIOLATED"), std::string::npos);
+}
+
+TEST(MonteCarloApp, RefusesBadInput) {
+  expect_refused("--theta 200 --trials 0", "trials = 0", "monte-carlo");
+  expect_refused("--theta 200 --trials 2.5", "trials = 2.5", "monte-carlo");
+  expect_refused("--theta 200 --horizon -1", "horizon = -1", "monte-carlo");
+  expect_refused("--theta 200 --threads -2", "threads = -2", "monte-carlo");
+  expect_refused("--theta 200 --seed x", "seed = 'x'", "monte-carlo");
+  expect_refused("--theta 200 --scenario moon", "scenario", "monte-carlo");
+  expect_refused("--design /nonexistent/design.json", "/nonexistent/design.json", "monte-carlo");
+  expect_refused("--theta 100 --certificate paper", "certifies no exponential rate", "monte-carlo");
 }
 
 }  // namespace

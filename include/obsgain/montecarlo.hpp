@@ -71,6 +71,11 @@ struct TrialSetup {
 TrialSetup make_trial(const Model& model, const Eigen::VectorXd& velocity_bounds, const MonteCarloOptions& options,
                       int index, double input_scale);
 
+// The dense-grid time series of one trial (trial 0 of the paper scenario is the paper's Fig. 2).
+std::vector<TrajectorySample> trial_trajectory(const Model& model, const Eigen::VectorXd& velocity_bounds,
+                                               const ObserverCertificate& certificate,
+                                               const MonteCarloOptions& options, int index);
+
 MonteCarloReport run_monte_carlo(const Model& model, const Eigen::VectorXd& velocity_bounds,
                                  const ObserverCertificate& certificate, const MonteCarloOptions& options);
 

@@ -32,8 +32,9 @@ struct SimulationOptions {
   double rtol = 1e-8;
   double atol = 1e-10;
   double grid_step = 1e-3;  // dense-output checks between accepted steps
-  // A ratio to a bound above 1 + violation_tolerance is a violation; below, integration error.
-  double violation_tolerance = 1e-6;
+  // A ratio to a bound above 1 + violation_tolerance is a violation; below, integration error. At the
+  // default tolerances a saturated trial's error is accurate to ~3e-5 relative (tests/test_simulation.cpp).
+  double violation_tolerance = 1e-4;
 };
 
 struct TrialInitialState {
