@@ -7,15 +7,22 @@ build=${1:-build}
 json=$(mktemp)
 "$build/bench/bench_simulation" --benchmark_repetitions=5 --benchmark_report_aggregates_only=true \
   --benchmark_format=json >"$json"
-read -r scipy_us scipy_steps < <(/usr/bin/python3 "$(dirname "$0")/scipy_paper_trajectory.py")
-/usr/bin/python3 - "$json" "$scipy_us" "$scipy_steps" <<'PY'
+scipy=$(mktemp)
+/usr/bin/python3 "$(dirname "$0")/scipy_paper_trajectory.py" >"$scipy"
+/usr/bin/python3 - "$json" "$scipy" <<'PY'
 import json, sys
-runs = {b["name"]: b["real_time"] for b in json.load(open(sys.argv[1]))["benchmarks"] if b.get("aggregate_name") == "median"}
-ours = runs["PaperTrajectory_median"]
-scipy = float(sys.argv[2])
-print(f"paper trajectory, 1 s horizon, one thread: obsgain {ours:.1f} us, SciPy RK45 {scipy:.0f} us "
-      f"({sys.argv[3]} steps): ratio {scipy / ours:.0f}x (target >= 300x)")
-one, two = runs["MonteCarlo200/1_median"], runs["MonteCarlo200/2_median"]
+bench = json.load(open(sys.argv[1]))["benchmarks"]
+runs = {b["run_name"]: b for b in bench if b.get("aggregate_name") == "median"}
+ours = runs["PaperTrajectory/real_time"]["real_time"]
+steps = runs["PaperTrajectory/real_time"].get("steps", 0)
+print(f"paper trajectory, 1 s horizon, one thread: obsgain {ours:.0f} us ({steps:.0f} steps)")
+for line in open(sys.argv[2]):
+    name, us, scipy_steps = line.split()
+    per_step = (float(us) / int(scipy_steps)) / (ours / steps)
+    print(f"  SciPy RK45, {name:5s} formulation: {float(us):.0f} us ({scipy_steps} steps): ratio {float(us) / ours:.0f}x "
+          f"per trajectory, {per_step:.0f}x per step")
+print("  (target >= 300x; 'same' is the like-for-like comparison, see bench/scipy_paper_trajectory.py)")
+one, two = runs["MonteCarlo200/1/real_time"]["real_time"], runs["MonteCarlo200/2/real_time"]["real_time"]
 print(f"monte-carlo 200 trials: 1 thread {one:.0f} ms, 2 threads {two:.0f} ms: speed-up {one / two:.2f}x (target >= 1.8x)")
 PY
-rm -f "$json"
+rm -f "$json" "$scipy"

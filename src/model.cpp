@@ -8,7 +8,8 @@ namespace obsgain {
 
 void Dynamics::coriolis_tensors(const Eigen::Ref<const Eigen::VectorXd>& q, std::vector<Eigen::MatrixXd>& N) const {
   const int n = dof();
-  N.assign(n, Eigen::MatrixXd::Zero(n, n));
+  N.resize(n);
+  for (auto& Ni : N) Ni.setZero(n, n);
   // A_i(q, ·) is a quadratic form, so its values at e_j and e_j + e_k determine N_i exactly.
   std::vector<Eigen::VectorXd> diagonal(n, Eigen::VectorXd(n));
   Eigen::VectorXd v = Eigen::VectorXd::Zero(n);

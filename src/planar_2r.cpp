@@ -20,7 +20,9 @@ void Planar2RDynamics::gravity(const Eigen::Ref<const Eigen::VectorXd>& q, Eigen
 void Planar2RDynamics::coriolis_tensors(const Eigen::Ref<const Eigen::VectorXd>& q,
                                         std::vector<Eigen::MatrixXd>& N) const {
   const auto tensors = planar_2r_coriolis_tensors(parameters_, q(1));
-  N.assign(tensors.begin(), tensors.end());
+  N.resize(2);
+  N[0] = tensors[0];  // same-size assignments: no allocation in the simulation's inner loop
+  N[1] = tensors[1];
 }
 
 Model make_planar_2r(const std::string& name, const Planar2RParameters& parameters, const Eigen::Vector2d& friction,

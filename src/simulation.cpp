@@ -8,38 +8,47 @@
 namespace obsgain {
 
 void InputSignal::evaluate(double t, Eigen::Ref<Eigen::VectorXd> u) const {
-  u = (amplitude.array() * (frequency.array() * t + phase.array()).sin()).rowwise().sum();
+  for (Eigen::Index c = 0; c < amplitude.rows(); ++c) {
+    double sum = 0.0;
+    for (Eigen::Index j = 0; j < amplitude.cols(); ++j) sum += amplitude(c, j) * std::sin(frequency(c, j) * t + phase(c, j));
+    u(c) = sum;
+  }
 }
 
 namespace {
 
 using State = std::vector<double>;
 
-// Right-hand side of (q, v, u_q, u_v, ρ) with e = exp(ρ) (u_q, u_v). Owns its work buffers, so that
+// Right-hand side of (q, v, u_q, u_v, ρ) with e = exp(ρ) (u_q, u_v). Dim is the joint count when known at
+// compile time (2 for the planar two-link family), else Eigen::Dynamic. Owns its work buffers, so that
 // evaluating it allocates nothing after construction.
+template <int Dim>
 class ErrorSystem {
+  using Vector = Eigen::Matrix<double, Dim, 1>;
+  using Matrix = Eigen::Matrix<double, Dim, Dim>;
+  using ConstVectorMap = Eigen::Map<const Vector>;
+  using VectorMap = Eigen::Map<Vector>;
+
  public:
   ErrorSystem(const Model& model, const ObserverCertificate& c, const Eigen::VectorXd& V, const InputSignal& input)
-      : model_(model), c_(c), V_(V), input_(input), n_(model.dof()),
-        M_(n_, n_), llt_(n_), N_(n_, Eigen::MatrixXd::Zero(n_, n_)), u_(model.input_matrix.cols()),
-        rhs_(n_), a_(n_), g_(n_), delta_(n_), sum_(n_), dA_(n_) {}
+      : model_(model), c_(c), V_(V), input_(input), n_(model.dof()), M_(n_, n_), llt_(n_), F_(model.friction),
+        H_(model.input_matrix), N_(n_, Eigen::MatrixXd::Zero(n_, n_)), u_(model.input_matrix.cols()), rhs_(n_),
+        a_(n_), g_(n_), delta_(n_), sum_(n_), dA_(n_), product_(n_) {}
 
   void operator()(const State& x, State& dxdt, double t) {
     const int n = n_;
-    const Eigen::Map<const Eigen::VectorXd> q(x.data(), n), v(x.data() + n, n), uq(x.data() + 2 * n, n),
-        uv(x.data() + 3 * n, n);
+    const ConstVectorMap q(x.data(), n), v(x.data() + n, n), uq(x.data() + 2 * n, n), uv(x.data() + 3 * n, n);
     const double rho = x[4 * n];
-    Eigen::Map<Eigen::VectorXd> dq(dxdt.data(), n), dv(dxdt.data() + n, n), duq(dxdt.data() + 2 * n, n),
-        duv(dxdt.data() + 3 * n, n);
+    VectorMap dq(dxdt.data(), n), dv(dxdt.data() + n, n), duq(dxdt.data() + 2 * n, n), duv(dxdt.data() + 3 * n, n);
 
     model_.dynamics->mass_matrix(q, M_);
     llt_.compute(M_);
     model_.dynamics->coriolis(q, v, a_);
     model_.dynamics->gravity(q, g_);
     input_.evaluate(t, u_);
-    rhs_.noalias() = model_.input_matrix * u_;
+    rhs_.noalias() = H_ * u_;
     rhs_ -= a_ + g_;
-    rhs_.noalias() -= model_.friction * v;
+    rhs_.noalias() -= F_ * v;
     llt_.solveInPlace(rhs_);
     dq = v;
     dv = rhs_;
@@ -64,8 +73,11 @@ class ErrorSystem {
       sum_(i) = w + y;
     }
     model_.dynamics->coriolis_tensors(q, N_);
-    for (int i = 0; i < n; ++i) dA_(i) = delta_.dot(N_[i] * sum_);
-    dA_.noalias() += model_.friction * uv;
+    for (int i = 0; i < n; ++i) {
+      product_.noalias() = Eigen::Map<const Matrix>(N_[i].data(), n, n) * sum_;
+      dA_(i) = delta_.dot(product_);
+    }
+    dA_.noalias() += F_ * uv;
     llt_.solveInPlace(dA_);
     duq = -c_.k1 * uq + uv;
     duv = -c_.k2 * uq - dA_;
@@ -82,10 +94,13 @@ class ErrorSystem {
   const Eigen::VectorXd& V_;
   const InputSignal& input_;
   int n_;
-  Eigen::MatrixXd M_;
-  Eigen::LLT<Eigen::MatrixXd> llt_;
+  Matrix M_;
+  Eigen::LLT<Matrix> llt_;
+  Matrix F_;
+  Eigen::Matrix<double, Dim, Eigen::Dynamic> H_;
   std::vector<Eigen::MatrixXd> N_;
-  Eigen::VectorXd u_, rhs_, a_, g_, delta_, sum_, dA_;
+  Eigen::VectorXd u_;
+  Vector rhs_, a_, g_, delta_, sum_, dA_, product_;
 };
 
 // The per-point checks, in log space: log ||e|| = ρ + log ||u||.
@@ -148,12 +163,11 @@ class TrialMonitor {
   double count_ = 0.0, st_ = 0.0, stt_ = 0.0, sy_ = 0.0, sty_ = 0.0;
 };
 
-}  // namespace
-
-TrialResult simulate_trial(const Model& model, const ObserverCertificate& certificate,
-                           const Eigen::VectorXd& velocity_bounds, const TrialInitialState& initial,
-                           const InputSignal& input, const SimulationOptions& options,
-                           std::vector<TrajectorySample>* trajectory) {
+template <int Dim>
+TrialResult integrate_trial(const Model& model, const ObserverCertificate& certificate,
+                            const Eigen::VectorXd& velocity_bounds, const TrialInitialState& initial,
+                            const InputSignal& input, const SimulationOptions& options,
+                            std::vector<TrajectorySample>* trajectory) {
   namespace odeint = boost::numeric::odeint;
   const int n = model.dof();
   const double e0 = std::sqrt(initial.e_q.squaredNorm() + initial.e_v.squaredNorm());
@@ -166,7 +180,7 @@ TrialResult simulate_trial(const Model& model, const ObserverCertificate& certif
   Eigen::Map<Eigen::VectorXd>(x.data() + 3 * n, n) = initial.e_v / e0;
   x[4 * n] = std::log(e0);
 
-  ErrorSystem system(model, certificate, velocity_bounds, input);
+  ErrorSystem<Dim> system(model, certificate, velocity_bounds, input);
   TrialMonitor monitor(certificate, velocity_bounds, n, x);
   TrialResult result;
   State sample(x.size());
@@ -207,6 +221,17 @@ TrialResult simulate_trial(const Model& model, const ObserverCertificate& certif
   }
   result.fitted_rate = monitor.fitted_rate();
   return result;
+}
+
+}  // namespace
+
+TrialResult simulate_trial(const Model& model, const ObserverCertificate& certificate,
+                           const Eigen::VectorXd& velocity_bounds, const TrialInitialState& initial,
+                           const InputSignal& input, const SimulationOptions& options,
+                           std::vector<TrajectorySample>* trajectory) {
+  if (model.dof() == 2)
+    return integrate_trial<2>(model, certificate, velocity_bounds, initial, input, options, trajectory);
+  return integrate_trial<Eigen::Dynamic>(model, certificate, velocity_bounds, initial, input, options, trajectory);
 }
 
 }  // namespace obsgain
