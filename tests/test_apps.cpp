@@ -8,6 +8,7 @@
 #include <sstream>
 #include <string>
 #include <sys/wait.h>
+#include <unistd.h>
 
 namespace {
 
@@ -17,7 +18,10 @@ struct AppRun {
 };
 
 AppRun run(const std::string& app, const std::string& arguments) {
-  const std::string err_file = ::testing::TempDir() + "/obsgain_stderr.txt";
+  // ctest runs these tests in parallel processes: one stderr file per process and call.
+  static int call = 0;
+  const std::string err_file =
+      ::testing::TempDir() + "/obsgain_stderr_" + std::to_string(getpid()) + "_" + std::to_string(call++) + ".txt";
   const std::string command = std::string(OBSGAIN_APP_DIR) + "/" + app + " " + arguments + " 2>" + err_file;
   FILE* pipe = popen(command.c_str(), "r");
   std::string out;
@@ -27,6 +31,7 @@ AppRun run(const std::string& app, const std::string& arguments) {
   std::ifstream err_stream(err_file);
   std::stringstream err;
   err << err_stream.rdbuf();
+  std::remove(err_file.c_str());
   return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out, err.str()};
 }
 
