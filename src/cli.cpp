@@ -46,6 +46,9 @@ void add_design_options(CLI::App& app, DesignArguments& a) {
   app.add_option("--certificate", a.certificate, "tight (bounded-real lemma) or paper (Theorem 1)")
       ->check(CLI::IsMember({"tight", "paper"}))
       ->capture_default_str();
+  app.add_option("--bounds", a.bounds, "certified (interval branch and bound) or numeric (optimisers only)")
+      ->check(CLI::IsMember({"certified", "numeric"}))
+      ->capture_default_str();
   app.add_option("--rate-margin", a.rate_margin,
                  "tight certificate: P is computed at gamma_sup (1 - margin) (default 0.01)");
 }
@@ -61,6 +64,7 @@ DesignOptions to_design_options(const DesignArguments& a) {
   o.optimize_shape = a.optimize_shape;
   o.lipschitz = a.lipschitz == "paper" ? LipschitzKind::paper : LipschitzKind::joint;
   o.certificate = a.certificate == "paper" ? CertificateKind::paper : CertificateKind::tight;
+  o.bound_method = a.bounds == "numeric" ? BoundMethod::numeric : BoundMethod::certified;
   if (!a.L.empty()) o.L_override = parse_number("L", a.L);
   if (!a.rate_margin.empty()) o.rate_margin = parse_number("rate-margin", a.rate_margin);
   if (!a.vmax.empty()) o.velocity_bounds = parse_number_list("vmax", a.vmax);

@@ -1,6 +1,7 @@
 #include "obsgain/design.hpp"
 
 #include "obsgain/certificate.hpp"
+#include "obsgain/certified_bounds.hpp"
 #include "obsgain/optimize.hpp"
 
 #include <fmt/format.h>
@@ -110,7 +111,7 @@ Design design_from_bounds(const Model& model, const BoundReport& bounds, const D
                            "not on the model");
   }
   for (const auto* bound : {&bounds.M0, &bounds.B, &bounds.L_joint}) {
-    if (std::abs(bound->global_value - bound->polish_value) > 1e-6 * std::abs(bound->value))
+    if (std::abs(bound->global_value - bound->polish_value) > 1e-6 * std::max(bound->global_value, bound->polish_value))
       d.warnings.push_back(fmt::format("bound search: NLopt ({:.10g}) and Ipopt ({:.10g}) disagree beyond 1e-6",
                                        bound->global_value, bound->polish_value));
   }
@@ -147,6 +148,20 @@ Design design_from_bounds(const Model& model, const BoundReport& bounds, const D
   return d;
 }
 
+BoundReport design_bounds(const Model& model, const Eigen::VectorXd& V, const DesignOptions& options,
+                          std::vector<std::string>& warnings) {
+  BoundReport bounds = compute_bounds(model, V, options.bounds);
+  if (options.bound_method == BoundMethod::certified) {
+    if (const auto certified = certify_bounds(model, bounds)) {
+      apply_certified_bounds(bounds, *certified);
+    } else {
+      warnings.push_back("model '" + model.name +
+                         "' cannot be evaluated on intervals: numeric bounds used (lower estimates of the suprema)");
+    }
+  }
+  return bounds;
+}
+
 Design design_gains(const Model& model, const DesignOptions& options) {
   validate_design_options(options);
   const auto start = std::chrono::steady_clock::now();
@@ -154,7 +169,10 @@ Design design_gains(const Model& model, const DesignOptions& options) {
   if (V.size() == 0)
     throw InputError("model '" + model.name + "' gives no velocity bounds: pass --vmax V1,...,Vn");
   validate_velocity_bounds(model, V);
-  Design d = design_from_bounds(model, compute_bounds(model, V, options.bounds), options);
+  std::vector<std::string> warnings;
+  const BoundReport bounds = design_bounds(model, V, options, warnings);
+  Design d = design_from_bounds(model, bounds, options);
+  d.warnings.insert(d.warnings.begin(), warnings.begin(), warnings.end());
   d.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return d;
 }

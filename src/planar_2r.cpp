@@ -25,6 +25,15 @@ void Planar2RDynamics::coriolis_tensors(const Eigen::Ref<const Eigen::VectorXd>&
   N[1] = tensors[1];
 }
 
+IntervalMatrix Planar2RDynamics::mass_matrix(const IntervalVector& q) const {
+  return planar_2r_mass_matrix(parameters_, q[1]);
+}
+
+std::vector<IntervalMatrix> Planar2RDynamics::coriolis_tensors(const IntervalVector& q) const {
+  const auto tensors = planar_2r_coriolis_tensors(parameters_, q[1]);
+  return {tensors[0], tensors[1]};
+}
+
 Model make_planar_2r(const std::string& name, const Planar2RParameters& parameters, const Eigen::Vector2d& friction,
                      const Eigen::MatrixXd& input_matrix, const Eigen::VectorXd& velocity_bounds) {
   Model model;

@@ -23,6 +23,11 @@ nlohmann::json bound_json(const BoundMaximum& m) {
   return j;
 }
 
+nlohmann::json bracket_json(const BoundBracket& b) {
+  return {{"lower", b.lower}, {"upper", b.upper}, {"argmax_q", to_json(b.argmax)}, {"boxes", b.boxes},
+          {"seconds", b.seconds}};
+}
+
 std::string vec(const Eigen::VectorXd& v) {
   std::string s = "(";
   for (Eigen::Index i = 0; i < v.size(); ++i) s += fmt::format("{}{:.6g}", i ? ", " : "", v(i));
@@ -52,6 +57,10 @@ nlohmann::json to_json(const Eigen::VectorXd& vector) {
   nlohmann::json values = nlohmann::json::array();
   for (Eigen::Index i = 0; i < vector.size(); ++i) values.push_back(vector(i));
   return values;
+}
+
+nlohmann::json certified_json(const BoundReport& b) {
+  return {{"M0", bracket_json(b.M0_bracket)}, {"B", bracket_json(b.B_bracket)}, {"L_joint", bracket_json(b.L_joint_bracket)}};
 }
 
 nlohmann::json to_json(const BoundReport& b) {
@@ -100,6 +109,7 @@ nlohmann::json to_json(const Design& d) {
       {"comparison", {{"paper", to_json(d.paper)}, {"tight", to_json(d.tight)}}},
       {"warnings", d.warnings},
       {"wall_seconds", d.wall_seconds}};
+  if (d.bounds.certified) j["certified"] = certified_json(d.bounds);
   if (d.shape.optimized) {
     j["shape"] = {{"objective", d.shape.objective},         {"alpha_global", d.shape.alpha_global},
                   {"alpha_polish", d.shape.alpha_polish},   {"objective_global", d.shape.objective_global},
@@ -113,11 +123,18 @@ std::string format_report(const Design& d) {
   const auto& b = d.bounds;
   out << fmt::format("obsgain design for '{}' ({} joints), velocity box |v_i| <= {}\n\n", d.robot_name, d.dof,
                      vec(d.velocity_bounds));
-  out << fmt::format("Bounds ({} search: NLopt DIRECT-L, then Ipopt polish)\n", b.method);
+  out << fmt::format("Bounds ({}: NLopt DIRECT-L, then Ipopt polish{})\n", b.method,
+                     b.certified ? "; then interval branch and bound" : "");
   out << fmt::format("  {:<8} {:>14} {:>14} {:>14}   {}\n", "", "value", "NLopt", "Ipopt", "argmax");
   for (const auto& [name, m] : {std::pair{"M0", &b.M0}, {"B", &b.B}, {"L_joint", &b.L_joint}}) {
     out << fmt::format("  {:<8} {:>14.7f} {:>14.7f} {:>14.7f}   {}\n", name, m->value, m->global_value,
                        m->polish_value, where(*m));
+  }
+  if (b.certified) {
+    out << "  certified brackets (interval branch and bound; the design uses the upper ends):\n";
+    for (const auto& [name, k] : {std::pair{"M0", &b.M0_bracket}, {"B", &b.B_bracket}, {"L_joint", &b.L_joint_bracket}})
+      out << fmt::format("  {:<8} [{:.10g}, {:.10g}]  gap {:.1e}, {} boxes, {:.2f} s\n", name, k->lower, k->upper,
+                         (k->upper - k->lower) / k->upper, k->boxes, k->seconds);
   }
   out << fmt::format("  {:<8} {:>14.7f}\n", "||F||", b.F_norm);
   out << fmt::format("  {:<8} {:>14.7f}   = M0 (B + ||F||)\n", "L_paper", b.L_paper);

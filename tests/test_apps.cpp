@@ -61,16 +61,20 @@ TEST(DesignGainsApp, RefusesBadInputWithOneLineAndExit2) {
   expect_refused("--robot nope --gamma 1", "unknown robot 'nope'");
   expect_refused("--gamma 1 --L 0", "L = 0");
   expect_refused("--gamma 1 --certificate best", "certificate");
+  expect_refused("--gamma 1 --bounds guessed", "bounds");
   expect_refused("--gamma 1 --optimize-shape --alpha 2", "optimize-shape");
   expect_refused("--gamma 1 --no-such-flag", "no-such-flag");
 }
 
 TEST(DesignGainsApp, JsonOnStdoutAndTableOtherwise) {
-  const AppRun j = run("design-gains", "--robot pendubot --gamma 1.27 --json");
+  const AppRun j = run("design-gains", "--robot pendubot --gamma 1.27 --json");  // certified bounds: the default
   ASSERT_EQ(j.exit_code, 0) << j.err;
   const nlohmann::json design = nlohmann::json::parse(j.out);
   EXPECT_NEAR(design["bounds"]["L_joint"].get<double>(), 43.3475, 1e-5 * 43.3475);
-  const AppRun t = run("design-gains", "--robot pendubot --gamma 1.27");
+  EXPECT_EQ(design["bounds"]["method"], "certified");
+  EXPECT_LE(design["certified"]["L_joint"]["lower"].get<double>(), design["bounds"]["L_joint"].get<double>());
+  EXPECT_EQ(design["certified"]["L_joint"]["upper"].get<double>(), design["bounds"]["L_joint"].get<double>());
+  const AppRun t = run("design-gains", "--robot pendubot --gamma 1.27 --bounds numeric");
   ASSERT_EQ(t.exit_code, 0) << t.err;
   EXPECT_NE(t.out.find("theta* (smallest gain)"), std::string::npos);
   EXPECT_NE(t.out.find("certified: ||e(t)||"), std::string::npos);
@@ -78,7 +82,7 @@ TEST(DesignGainsApp, JsonOnStdoutAndTableOtherwise) {
 
 TEST(DesignGainsApp, JsonToFile) {
   const std::string path = ::testing::TempDir() + "/obsgain_design.json";
-  const AppRun r = run("design-gains", "--gamma 2 --certificate paper --json " + path);
+  const AppRun r = run("design-gains", "--gamma 2 --certificate paper --bounds numeric --json " + path);
   ASSERT_EQ(r.exit_code, 0) << r.err;
   std::ifstream file(path);
   const nlohmann::json design = nlohmann::json::parse(file);
@@ -88,7 +92,7 @@ TEST(DesignGainsApp, JsonToFile) {
 
 TEST(MonteCarloApp, ValidatesASavedDesign) {
   const std::string design = ::testing::TempDir() + "/obsgain_mc_design.json";
-  ASSERT_EQ(run("design-gains", "--gamma 1.27 --json " + design).exit_code, 0);
+  ASSERT_EQ(run("design-gains", "--gamma 1.27 --bounds numeric --json " + design).exit_code, 0);
   const std::string csv = ::testing::TempDir() + "/obsgain_trials.csv";
   const std::string trajectory = ::testing::TempDir() + "/obsgain_trajectory.csv";
   const AppRun r = run("monte-carlo", "--design " + design + " --trials 20 --seed 3 --horizon 0.5 --json --csv " + csv +
@@ -108,7 +112,7 @@ TEST(MonteCarloApp, ValidatesASavedDesign) {
 }
 
 TEST(MonteCarloApp, ExitOneWhenTheCertificateIsViolated) {
-  const AppRun r = run("monte-carlo", "--gamma 1 --L 0.01 --trials 20 --horizon 3 --initial-errors practical");
+  const AppRun r = run("monte-carlo", "--gamma 1 --L 0.01 --bounds numeric --trials 20 --horizon 3 --initial-errors practical");
   EXPECT_EQ(r.exit_code, 1) << r.out << r.err;
   EXPECT_NE(r.out.find("CERTIFICATE VIOLATED"), std::string::npos);
 }
@@ -121,7 +125,7 @@ TEST(MonteCarloApp, RefusesBadInput) {
   expect_refused("--theta 200 --seed x", "seed = 'x'", "monte-carlo");
   expect_refused("--theta 200 --scenario moon", "scenario", "monte-carlo");
   expect_refused("--design /nonexistent/design.json", "/nonexistent/design.json", "monte-carlo");
-  expect_refused("--theta 100 --certificate paper", "certifies no exponential rate", "monte-carlo");
+  expect_refused("--theta 100 --certificate paper --bounds numeric", "certifies no exponential rate", "monte-carlo");
 }
 
 }  // namespace

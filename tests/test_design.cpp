@@ -9,6 +9,7 @@ namespace {
 
 obsgain::DesignOptions paper_line() {
   obsgain::DesignOptions o;
+  o.bound_method = obsgain::BoundMethod::numeric;  // bounds are not under test here
   o.gamma = 1.27;
   o.certificate = obsgain::CertificateKind::paper;
   o.lipschitz = obsgain::LipschitzKind::paper;
@@ -59,6 +60,7 @@ TEST(Design, ShapeOptimisationForThePaperCertificate) {
 
 TEST(Design, ShapeOptimisationForTheTightCertificateBeatsAlphaOne) {
   obsgain::DesignOptions o;
+  o.bound_method = obsgain::BoundMethod::numeric;  // bounds are not under test here
   o.gamma = 1.27;
   o.L_override = 54.01;
   const obsgain::Design fixed = obsgain::design_gains(obsgain::pendubot(), o);
@@ -74,6 +76,7 @@ TEST(Design, ShapeOptimisationForTheTightCertificateBeatsAlphaOne) {
 
 TEST(Design, TightCertificateIsTheDefaultAndCertifiesTheTarget) {
   obsgain::DesignOptions o;
+  o.bound_method = obsgain::BoundMethod::numeric;  // bounds are not under test here
   o.gamma = 1.27;
   const obsgain::Design d = obsgain::design_gains(obsgain::pendubot(), o);
   EXPECT_EQ(d.certificate, obsgain::CertificateKind::tight);
@@ -89,6 +92,7 @@ TEST(Design, TightCertificateIsTheDefaultAndCertifiesTheTarget) {
 
 TEST(Design, JsonCarriesTheContractKeys) {
   obsgain::DesignOptions o;
+  o.bound_method = obsgain::BoundMethod::numeric;  // bounds are not under test here
   o.theta = 200.0;
   o.L_override = 54.01;
   const nlohmann::json j = obsgain::to_json(obsgain::design_gains(obsgain::pendubot(), o));
@@ -106,6 +110,7 @@ TEST(Design, BadOptionsAreRefused) {
   const obsgain::Model model = obsgain::pendubot();
   auto with = [](auto change) {
     obsgain::DesignOptions o;
+    o.bound_method = obsgain::BoundMethod::numeric;  // bounds are not under test here
     o.gamma = 1.0;
     change(o);
     return o;

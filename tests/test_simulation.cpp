@@ -81,6 +81,7 @@ TEST(Simulation, ClosedFormLinearCaseKeepsRelativePrecision) {
 TEST(Simulation, SaturatedTrialMatchesTightReference) {
   const obsgain::Model model = obsgain::pendubot();
   obsgain::DesignOptions design;
+  design.bound_method = obsgain::BoundMethod::numeric;  // bounds are not under test here
   design.theta = 200.0;
   const obsgain::ObserverCertificate c = obsgain::observer_certificate(obsgain::design_gains(model, design));
   obsgain::MonteCarloOptions mc;
@@ -115,6 +116,7 @@ TEST(Simulation, SaturatedTrialMatchesTightReference) {
 TEST(Simulation, PaperScenarioConverges) {
   const obsgain::Model model = obsgain::pendubot();
   obsgain::DesignOptions design;  // the paper's design: θ = 200, α = β = 1, its L
+  design.bound_method = obsgain::BoundMethod::numeric;
   design.theta = 200.0;
   design.L_override = 54.01;
   design.certificate = obsgain::CertificateKind::paper;

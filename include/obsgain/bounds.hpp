@@ -31,12 +31,22 @@ struct BoundMaximum {
   int polish_evaluations = 0;
 };
 
+// A certified bracket [lower, upper] of one supremum (certified_bounds.hpp fills it).
+struct BoundBracket {
+  double lower = 0.0, upper = 0.0;
+  Eigen::VectorXd argmax;
+  int boxes = 0;
+  double seconds = 0.0;
+};
+
 struct BoundReport {
   Eigen::VectorXd velocity_bounds;
   BoundMaximum M0, B, L_joint;
   double F_norm = 0.0;
   double L_paper = 0.0;
-  std::string method = "numeric";
+  std::string method = "numeric";  // "certified": the values are the brackets' upper ends
+  bool certified = false;
+  BoundBracket M0_bracket, B_bracket, L_joint_bracket;
   double wall_seconds = 0.0;
 };
 

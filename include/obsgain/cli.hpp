@@ -18,6 +18,7 @@ struct DesignArguments {
   std::string vmax, gamma, theta, alpha, beta, L, rate_margin;
   std::string lipschitz = "joint";
   std::string certificate = "tight";
+  std::string bounds = "certified";
   bool optimize_shape = false;
 };
 

@@ -14,6 +14,7 @@ namespace obsgain {
 
 enum class CertificateKind { paper, tight };
 enum class LipschitzKind { paper, joint };
+enum class BoundMethod { certified, numeric };
 
 struct DesignOptions {
   std::optional<double> gamma;  // target rate: θ is the smallest gain that certifies it
@@ -28,6 +29,8 @@ struct DesignOptions {
   // buys a finite, much smaller envelope constant k. A target-γ design raises θ so that γ itself is certified.
   double rate_margin = 0.01;
   Eigen::VectorXd velocity_bounds;  // empty: the model's own
+  // certified: interval branch and bound (models that support it; else numeric with a warning).
+  BoundMethod bound_method = BoundMethod::certified;
   BoundOptions bounds;
 };
 
@@ -77,7 +80,12 @@ void validate_design_options(const DesignOptions& options);
 
 Design design_gains(const Model& model, const DesignOptions& options);
 
-// Given the bounds, the rest of the design (used again by verify-bounds with certified bounds).
+// The bounds a design rests on: numeric search, then certified brackets when asked and possible.
+// Appends a warning when certified bounds were asked for but the model cannot give them.
+BoundReport design_bounds(const Model& model, const Eigen::VectorXd& velocity_bounds, const DesignOptions& options,
+                          std::vector<std::string>& warnings);
+
+// Given the bounds, the rest of the design.
 Design design_from_bounds(const Model& model, const BoundReport& bounds, const DesignOptions& options);
 
 const char* to_string(CertificateKind kind);

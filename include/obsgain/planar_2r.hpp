@@ -3,6 +3,7 @@
 // code runs on double and on intervals.
 #pragma once
 
+#include "obsgain/certified_bounds.hpp"
 #include "obsgain/model.hpp"
 
 #include <array>
@@ -47,7 +48,7 @@ Eigen::Matrix<Scalar, 2, 1> planar_2r_gravity(const Planar2RParameters& p, const
   return g;
 }
 
-class Planar2RDynamics final : public Dynamics {
+class Planar2RDynamics final : public Dynamics, public IntervalDynamics {
  public:
   explicit Planar2RDynamics(const Planar2RParameters& parameters) : parameters_(parameters) {}
   int dof() const override { return 2; }
@@ -57,6 +58,9 @@ class Planar2RDynamics final : public Dynamics {
   void gravity(const Eigen::Ref<const Eigen::VectorXd>& q, Eigen::Ref<Eigen::VectorXd> g) const override;
   void coriolis_tensors(const Eigen::Ref<const Eigen::VectorXd>& q, std::vector<Eigen::MatrixXd>& N) const override;
   std::vector<int> configuration_joints() const override { return {1}; }
+  // The same templates on intervals, for certified bounds.
+  IntervalMatrix mass_matrix(const IntervalVector& q) const override;
+  std::vector<IntervalMatrix> coriolis_tensors(const IntervalVector& q) const override;
   const Planar2RParameters& parameters() const { return parameters_; }
 
  private:

@@ -14,6 +14,7 @@ namespace obsgain {
 nlohmann::json to_json(const Eigen::MatrixXd& matrix);  // rows of numbers
 nlohmann::json to_json(const Eigen::VectorXd& vector);
 nlohmann::json to_json(const BoundReport& bounds);
+nlohmann::json certified_json(const BoundReport& bounds);  // {M0, B, L_joint}: {lower, upper, argmax_q, boxes, seconds}
 nlohmann::json to_json(const CertificateSummary& summary);
 nlohmann::json to_json(const Design& design);
 
