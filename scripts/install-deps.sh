@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Installs the Debian packages obsgain needs, and only those that are missing.
-# Usage: scripts/install-deps.sh [--with-bench]   (root, or sudo available)
+# Usage: scripts/install-deps.sh [--with-bench] [--with-browser]   (root, or sudo available)
+#   --with-bench    SciPy, for the reference timings in bench/
+#   --with-browser  Chromium, for the test that screenshots the HTML report
 set -euo pipefail
 
 packages=(
@@ -9,9 +11,13 @@ packages=(
   libcli11-dev nlohmann-json3-dev libfmt-dev libgtest-dev libbenchmark-dev
   gnuplot-nox
 )
-if [[ "${1:-}" == "--with-bench" ]]; then
-  packages+=(python3-numpy python3-scipy)
-fi
+for option in "$@"; do
+  case "$option" in
+    --with-bench) packages+=(python3-numpy python3-scipy) ;;
+    --with-browser) packages+=(chromium) ;;
+    *) echo "install-deps: unknown option '$option'" >&2; exit 2 ;;
+  esac
+done
 
 missing=()
 for p in "${packages[@]}"; do

@@ -4,7 +4,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 jobs=$(nproc)
-scripts/install-deps.sh
+scripts/install-deps.sh --with-browser
 scripts/build.sh
 ctest --test-dir build --output-on-failure -j"$jobs"
 

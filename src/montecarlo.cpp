@@ -100,9 +100,10 @@ TrialSetup make_trial(const Model& model, const Eigen::VectorXd& V, const MonteC
 
 std::vector<TrajectorySample> trial_trajectory(const Model& model, const Eigen::VectorXd& V,
                                                const ObserverCertificate& certificate,
-                                               const MonteCarloOptions& options, int index) {
+                                               const MonteCarloOptions& options, int index,
+                                               double input_scale) {
   std::vector<TrajectorySample> samples;
-  const TrialSetup trial = make_trial(model, V, options, index, 1.0);
+  const TrialSetup trial = make_trial(model, V, options, index, input_scale);
   simulate_trial(model, certificate, V, trial.initial, trial.input, options.simulation, &samples);
   return samples;
 }

@@ -257,6 +257,12 @@ void write_trajectory_csv(const std::vector<TrajectorySample>& samples, std::ost
   }
 }
 
+nlohmann::json to_json(const VerificationReport& r) {
+  nlohmann::json j = to_json(r.design);
+  j["monte_carlo"] = to_json(r.monte_carlo);
+  return j;
+}
+
 SavedDesign saved_design_from_json(const nlohmann::json& j) {
   try {
     SavedDesign saved;

@@ -17,12 +17,13 @@ struct AppRun {
   std::string out, err;
 };
 
-AppRun run(const std::string& app, const std::string& arguments) {
+AppRun run(const std::string& app, const std::string& arguments, const std::string& environment = "") {
   // ctest runs these tests in parallel processes: one stderr file per process and call.
   static int call = 0;
   const std::string err_file =
       ::testing::TempDir() + "/obsgain_stderr_" + std::to_string(getpid()) + "_" + std::to_string(call++) + ".txt";
-  const std::string command = std::string(OBSGAIN_APP_DIR) + "/" + app + " " + arguments + " 2>" + err_file;
+  const std::string command = (environment.empty() ? "" : "env " + environment + " ") + std::string(OBSGAIN_APP_DIR) +
+                              "/" + app + " " + arguments + " 2>" + err_file;
   FILE* pipe = popen(command.c_str(), "r");
   std::string out;
   std::array<char, 4096> buffer{};
@@ -126,6 +127,59 @@ TEST(MonteCarloApp, RefusesBadInput) {
   expect_refused("--theta 200 --scenario moon", "scenario", "monte-carlo");
   expect_refused("--design /nonexistent/design.json", "/nonexistent/design.json", "monte-carlo");
   expect_refused("--theta 100 --certificate paper --bounds numeric", "certifies no exponential rate", "monte-carlo");
+}
+
+nlohmann::json read_json(const std::string& path) {
+  std::ifstream file(path);
+  return nlohmann::json::parse(file);
+}
+
+std::string read_text(const std::string& path) {
+  std::ifstream file(path);
+  std::stringstream text;
+  text << file.rdbuf();
+  return text.str();
+}
+
+TEST(VerifyBoundsApp, WritesTheReportWithCertifiedBrackets) {
+  const std::string out = ::testing::TempDir() + "/obsgain_verify";
+  const AppRun r = run("verify-bounds", "--robot pendubot --gamma 1.27 --trials 20 --out " + out);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json report = read_json(out + "/report.json");
+  for (const auto& [name, reference] : {std::pair{"M0", 285.7398}, {"B", 0.4347667}, {"L_joint", 43.3475}}) {
+    const double lower = report["certified"][name]["lower"], upper = report["certified"][name]["upper"];
+    EXPECT_LE(lower, reference * (1 + 1e-6)) << name;
+    EXPECT_GE(upper, reference * (1 - 1e-6)) << name;
+    EXPECT_LE(upper - lower, 1e-6 * upper) << name;
+  }
+  EXPECT_EQ(report["monte_carlo"]["trials"], 20);
+  EXPECT_EQ(report["monte_carlo"]["envelope_violations"], 0);
+  EXPECT_TRUE(report["comparison"].contains("paper"));
+  const std::string html = read_text(out + "/report.html");
+  EXPECT_GE(std::count(html.begin(), html.end(), '\n'), 50);
+  // Four plots inline; nothing loaded from outside (the SVG namespace URIs load nothing).
+  std::size_t svgs = 0;
+  for (auto at = html.find("<svg"); at != std::string::npos; at = html.find("<svg", at + 1)) ++svgs;
+  EXPECT_EQ(svgs, 4u);
+  for (const char* external : {"src=\"http", "src='http", "href=\"http", "href='http", "<link", "<script"})
+    EXPECT_EQ(html.find(external), std::string::npos) << external;
+  for (const char* csv : {"bound_curves.csv", "paper_scenario.csv", "monte_carlo_errors.csv", "rate_vs_theta.csv"})
+    EXPECT_FALSE(read_text(out + "/" + csv).empty()) << csv;
+}
+
+TEST(VerifyBoundsApp, WithoutGnuplotTheReportStillBuildsAndSaysWhy) {
+  const std::string out = ::testing::TempDir() + "/obsgain_verify_noplot";
+  const AppRun r = run("verify-bounds", "--gamma 1.27 --bounds numeric --trials 4 --out " + out, "PATH=/nonexistent");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string html = read_text(out + "/report.html");
+  EXPECT_NE(html.find("Plots are missing: gnuplot is not installed"), std::string::npos);
+  EXPECT_EQ(html.find("<svg"), std::string::npos);
+  EXPECT_FALSE(read_text(out + "/bound_curves.csv").empty());
+}
+
+TEST(VerifyBoundsApp, RefusesBadInput) {
+  expect_refused("--gamma 1.27", "--out", "verify-bounds");
+  expect_refused("--gamma -2 --out /tmp/x", "gamma = -2", "verify-bounds");
 }
 
 }  // namespace

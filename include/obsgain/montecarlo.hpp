@@ -74,7 +74,8 @@ TrialSetup make_trial(const Model& model, const Eigen::VectorXd& velocity_bounds
 // The dense-grid time series of one trial (trial 0 of the paper scenario is the paper's Fig. 2).
 std::vector<TrajectorySample> trial_trajectory(const Model& model, const Eigen::VectorXd& velocity_bounds,
                                                const ObserverCertificate& certificate,
-                                               const MonteCarloOptions& options, int index);
+                                               const MonteCarloOptions& options, int index,
+                                               double input_scale = 1.0);
 
 MonteCarloReport run_monte_carlo(const Model& model, const Eigen::VectorXd& velocity_bounds,
                                  const ObserverCertificate& certificate, const MonteCarloOptions& options);

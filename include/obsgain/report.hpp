@@ -3,6 +3,7 @@
 
 #include "obsgain/design.hpp"
 #include "obsgain/montecarlo.hpp"
+#include "obsgain/verification.hpp"
 
 #include <nlohmann/json.hpp>
 
@@ -26,6 +27,17 @@ nlohmann::json to_json(const MonteCarloReport& report);
 std::string format_report(const MonteCarloReport& report);
 void write_trials_csv(const MonteCarloReport& report, std::ostream& out);          // one row per trial
 void write_trajectory_csv(const std::vector<TrajectorySample>& samples, std::ostream& out);
+
+nlohmann::json to_json(const VerificationReport& report);
+
+struct WrittenReport {
+  std::string html, json;   // paths
+  bool plots = false;       // gnuplot drew the plots
+  std::string plots_note;   // why not, when it did not
+};
+// Writes DIR/report.json, DIR/report.html (self-contained: plots inline as SVG) and the CSV behind every
+// plot. Plots are drawn by gnuplot from the CSVs; without gnuplot the report still builds and says so.
+WrittenReport write_verification_report(const VerificationReport& report, const std::string& directory);
 
 // What monte-carlo needs from design-gains' JSON: the robot, the velocity box and the certificate.
 struct SavedDesign {

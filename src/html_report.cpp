@@ -1,0 +1,268 @@
+// The verification report a person reads: one self-contained HTML page with inline SVG plots.
+#include "obsgain/report.hpp"
+
+#include <fmt/format.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+namespace obsgain {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+void write_file(const fs::path& path, const std::string& text) {
+  std::ofstream out(path);
+  if (!(out << text)) throw InputError("cannot write '" + path.string() + "'");
+}
+
+std::string read_file(const fs::path& path) {
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+std::string escape(const std::string& text) {
+  std::string out;
+  for (char c : text) {
+    if (c == '<') out += "&lt;";
+    else if (c == '>') out += "&gt;";
+    else if (c == '&') out += "&amp;";
+    else out += c;
+  }
+  return out;
+}
+
+// The CSV behind each plot.
+void write_data(const VerificationReport& r, const fs::path& dir) {
+  std::ostringstream bounds;
+  bounds << "angle,inverse_inertia_norm,jacobian_norm,joint_lipschitz_norm\n";
+  for (const auto& p : r.bound_curve)
+    bounds << fmt::format("{:.9g},{:.12g},{:.12g},{:.12g}\n", p.angle, p.inverse_inertia_norm, p.jacobian_norm,
+                          p.joint_lipschitz_norm);
+  write_file(dir / "bound_curves.csv", bounds.str());
+
+  std::ostringstream paper;
+  write_trajectory_csv(r.paper_run, paper);
+  write_file(dir / "paper_scenario.csv", paper.str());
+
+  // One block per trial (gnuplot's `index`): t, ||e(t)||/||e(0)||, envelope k e^{-γt}.
+  std::ostringstream errors;
+  errors << "# t,error_ratio,envelope_ratio\n";
+  for (const auto& trace : r.error_traces) {
+    const double e0 = trace.front().error_norm;
+    for (const auto& s : trace)
+      errors << fmt::format("{:.9g},{:.12g},{:.12g}\n", s.t, s.error_norm / e0, s.envelope / e0);
+    errors << "\n\n";
+  }
+  write_file(dir / "monte_carlo_errors.csv", errors.str());
+
+  std::ostringstream rates;
+  rates << "theta,paper_gamma,tight_gamma\n";
+  for (const auto& p : r.rate_curve) rates << fmt::format("{:.9g},{:.12g},{:.12g}\n", p.theta, p.paper_gamma, p.tight_gamma);
+  write_file(dir / "rate_vs_theta.csv", rates.str());
+
+  std::ofstream trials(dir / "monte_carlo_trials.csv");
+  write_trials_csv(r.monte_carlo, trials);
+}
+
+struct Plot {
+  std::string name, title, script;
+};
+
+std::vector<Plot> plots(const VerificationReport& r) {
+  const Design& d = r.design;
+  const auto& b = d.bounds;
+  const std::string joint = fmt::format("q{}", r.curve_joint + 1);
+  const std::string common = "set terminal svg size 760,380 dynamic font 'sans,11'\nset datafile separator ','\n"
+                             "set key outside right\nset grid\n";
+  std::vector<Plot> out;
+  out.push_back({"bound_curves", "Bounds over the joint angle, with the certified upper bounds",
+                 common + fmt::format("set multiplot layout 1,2\nset xlabel '{0} [rad]'\nset title '||M(q)^-1||'\n"
+                                      "plot 'bound_curves.csv' every ::1 using 1:2 with lines lw 2 title 'sampled', "
+                                      "{1:.12g} with lines dt 2 lw 2 title 'M0 (upper)'\n"
+                                      "set title '||J(q,w)|| (max over vertices)'\n"
+                                      "plot 'bound_curves.csv' every ::1 using 1:3 with lines lw 2 title 'sampled', "
+                                      "{2:.12g} with lines dt 2 lw 2 title 'B (upper)'\nunset multiplot\n",
+                                      joint, b.M0.value, b.B.value)});
+  const int n = d.dof;
+  std::string series;
+  for (int i = 0; i < n; ++i) {
+    series += fmt::format("{}'paper_scenario.csv' every ::1 using 1:{} with lines lw 2 title 'v{}', "
+                          "'paper_scenario.csv' every ::1 using 1:{} with lines dt 2 lw 2 title 'v{} estimate'",
+                          i ? ", " : "", 2 + n + i, i + 1, 2 + 3 * n + i, i + 1);
+  }
+  out.push_back({"paper_scenario", "The paper's scenario: velocities and their estimates (the paper's Fig. 2)",
+                 common + "set xlabel 't [s]'\nset ylabel 'rad/s'\nplot " + series + "\n"});
+  out.push_back({"monte_carlo_errors", "Monte Carlo error norms against the certified envelope",
+                 common + fmt::format("set logscale y\nset format y '1e%T'\nset xlabel 't [s]'\n"
+                                      "set ylabel '||e(t)|| / ||e(0)||'\n"
+                                      "plot for [i=0:{0}] 'monte_carlo_errors.csv' index i using 1:2 with lines lc rgb "
+                                      "'#3070b0' notitle, 'monte_carlo_errors.csv' index 0 using 1:3 with lines lw 3 "
+                                      "lc rgb '#c03020' title 'k exp(-gamma t)'\n",
+                                      std::max<int>(0, static_cast<int>(r.error_traces.size()) - 1))});
+  out.push_back({"rate_vs_theta", "Certified rate against the gain, both certificates",
+                 common + fmt::format("set xlabel 'theta'\nset ylabel 'certified gamma [1/s]'\n"
+                                      "set arrow from {0:.9g}, graph 0 to {0:.9g}, graph 1 nohead dt 3\n"
+                                      "plot 'rate_vs_theta.csv' every ::1 using 1:2 with lines lw 2 title 'paper', "
+                                      "'rate_vs_theta.csv' every ::1 using 1:3 with lines lw 2 title 'tight', "
+                                      "0 with lines lc rgb 'black' notitle\n",
+                                      d.selected().theta)});
+  return out;
+}
+
+std::string inline_svg(const std::string& svg) {
+  const auto start = svg.find("<svg");
+  return start == std::string::npos ? std::string() : svg.substr(start);
+}
+
+std::string table_row(const std::vector<std::string>& cells, bool header = false) {
+  std::string row = "<tr>";
+  for (const auto& c : cells) row += header ? "<th>" + c + "</th>" : "<td>" + c + "</td>";
+  return row + "</tr>\n";
+}
+
+std::string number(double x) { return fmt::format("{:.7g}", x); }
+
+std::string vector_text(const Eigen::VectorXd& v) {
+  std::string s = "(";
+  for (Eigen::Index i = 0; i < v.size(); ++i) s += (i ? ", " : "") + fmt::format("{:.6g}", v(i));
+  return s + ")";
+}
+
+std::string html(const VerificationReport& r, const std::vector<Plot>& plot_list, const std::vector<std::string>& svgs,
+                 const std::string& plots_note) {
+  const Design& d = r.design;
+  const auto& b = d.bounds;
+  const MonteCarloReport& mc = r.monte_carlo;
+  std::ostringstream h;
+  h << "<!DOCTYPE html>\n<html lang='en'><head><meta charset='utf-8'><title>obsgain verification: " << escape(r.robot)
+    << "</title>\n<style>body{font-family:sans-serif;max-width:60em;margin:2em auto;line-height:1.4;color:#222}"
+       "table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #bbb;padding:.25em .6em;text-align:right}"
+       "th{background:#eef}td:first-child,th:first-child{text-align:left}.ok{color:#060;font-weight:bold}"
+       ".bad{color:#a00;font-weight:bold}.warn{background:#fff4d0;padding:.5em}figure{margin:1.5em 0}"
+       "figcaption{font-style:italic}</style></head><body>\n";
+  h << "<h1>Observer verification report: " << escape(r.robot) << "</h1>\n";
+
+  h << "<h2>1. Model and assumption</h2>\n<p>Robot <b>" << escape(r.robot) << "</b>, " << d.dof
+    << " joints. Saturated Luenberger observer (Celani) with gains k1 = θα, k2 = θ²β. "
+       "<b>Assumption:</b> the observed trajectory keeps its joint velocities in the box |v<sub>i</sub>| ≤ V<sub>i</sub>, V = "
+    << vector_text(d.velocity_bounds)
+    << " rad/s. Everything below is certified for every initial observer state, for every input, and only "
+       "while that assumption holds.</p>\n";
+  for (const auto& w : d.warnings) h << "<p class='warn'>Warning: " << escape(w) << "</p>\n";
+
+  h << "<h2>2. Bounds</h2>\n<p>Method: <b>" << b.method
+    << "</b>. The velocity enters through the vertices of the box only (the norms are convex in v and in the "
+       "saturation pattern D). The numerical search (NLopt DIRECT-L, then Ipopt) gives values attained at a point; "
+    << (b.certified ? "an interval branch and bound (Boost.Interval, outward rounding) gives upper bounds that provably "
+                      "exceed the suprema. The design uses the upper ends."
+                    : "no certified bracket is available for this model, so the design rests on these lower estimates.")
+    << "</p>\n<table>\n"
+    << table_row({"constant", "lower (attained)", "upper (certified)", "gap", "argmax", "NLopt", "Ipopt", "boxes"}, true);
+  const auto bound_row = [&](const std::string& name, const BoundMaximum& m, const BoundBracket& k) {
+    std::string where = "q = " + vector_text(m.q);
+    if (m.velocity_vertex.size()) where += ", v = " + vector_text(m.velocity_vertex);
+    if (m.saturation_pattern.size()) where += ", D = diag" + vector_text(m.saturation_pattern);
+    h << table_row({name, number(b.certified ? k.lower : m.value), b.certified ? number(k.upper) : "—",
+                    b.certified ? fmt::format("{:.1e}", (k.upper - k.lower) / k.upper) : "—", where,
+                    number(m.global_value), number(m.polish_value), b.certified ? std::to_string(k.boxes) : "—"});
+  };
+  bound_row("M0 = sup ||M⁻¹||", b.M0, b.M0_bracket);
+  bound_row("B = sup ||∂A/∂v||", b.B, b.B_bracket);
+  bound_row("L_joint", b.L_joint, b.L_joint_bracket);
+  h << "</table>\n<p>||F|| = " << number(b.F_norm) << ", L_paper = M0 (B + ||F||) = " << number(b.L_paper)
+    << ". The certificate uses L = " << number(d.L_used) << " (" << d.L_source << ").</p>\n";
+
+  h << "<h2>3. Lyapunov equation</h2>\n<p>Gᵀ S + S G = −I with G = [[−α, 1], [−β, 0]] ⊗ I, α = " << number(d.alpha)
+    << ", β = " << number(d.beta) << " (Bartels–Stewart): S block = [[" << number(d.lyapunov.S2(0, 0)) << ", "
+    << number(d.lyapunov.S2(0, 1)) << "], [" << number(d.lyapunov.S2(1, 0)) << ", " << number(d.lyapunov.S2(1, 1))
+    << "]], ||S|| = " << number(d.lyapunov.S_norm) << ", relative residual " << fmt::format("{:.1e}", d.lyapunov.residual)
+    << ".</p>\n";
+
+  h << "<h2>4. Certificates side by side</h2>\n<table>\n" << table_row({"", "paper (Theorem 1)", "tight (bounded-real)"}, true);
+  const auto cert_row = [&](const std::string& label, double p, double t) { h << table_row({label, number(p), number(t)}); };
+  cert_row(d.target_gamma ? "θ* for the target γ = " + number(*d.target_gamma) : "θ* (any positive rate)",
+           d.paper.theta_star, d.tight.theta_star);
+  cert_row("θ chosen", d.paper.theta, d.tight.theta);
+  cert_row("γ certified at θ", d.paper.gamma, d.tight.gamma);
+  cert_row("envelope rate", d.paper.envelope_gamma, d.tight.envelope_gamma);
+  cert_row("k (envelope constant)", d.paper.k, d.tight.k);
+  cert_row("k1 = θα", d.paper.k1, d.tight.k1);
+  cert_row("k2 = θ²β", d.paper.k2, d.tight.k2);
+  h << "</table>\n<p>Selected: <b>" << to_string(d.certificate) << "</b>. "
+    << (d.selected().certified
+            ? fmt::format("<span class='ok'>Certified</span>: ||e(t)|| ≤ {:.6g} ||e(0)|| e<sup>−{:.6g} t</sup>.", d.selected().k,
+                          d.selected().envelope_gamma)
+            : std::string("<span class='bad'>Not certified.</span>"))
+    << (d.tight.lmi_max_eig ? fmt::format(" Tight certificate LMI largest eigenvalue {:.2e} (negative certifies).",
+                                          *d.tight.lmi_max_eig)
+                            : "")
+    << "</p>\n";
+
+  h << "<h2>5. Monte Carlo</h2>\n<p>" << mc.trials << " trials (" << mc.scenario << " scenario, " << mc.initial_errors
+    << " initial errors, horizon " << mc.simulation.horizon << " s, seed " << mc.seed << "): "
+    << (mc.certificate_held() ? "<span class='ok'>no trajectory left the certified envelope</span>"
+                              : "<span class='bad'>CERTIFICATE VIOLATED</span>")
+    << ".</p>\n<table>\n"
+    << table_row({"passed", "envelope violations", "Lyapunov violations", "left the velocity box", "worst envelope ratio",
+                  "worst Lyapunov ratio", "fitted rate min / median / max", "certified γ"},
+                 true)
+    << table_row({std::to_string(mc.passed), std::to_string(mc.envelope_violations), std::to_string(mc.lyapunov_violations),
+                  std::to_string(mc.assumption_violations), fmt::format("{:.4g}", mc.worst_envelope_ratio),
+                  fmt::format("{:.4g}", mc.worst_lyapunov_ratio),
+                  fmt::format("{:.4g} / {:.4g} / {:.4g}", mc.decay_rate.min, mc.decay_rate.median, mc.decay_rate.max),
+                  number(mc.certificate.gamma)})
+    << "</table>\n<p>Trials that leave the velocity box are outside the theorem's assumption: they prove nothing and "
+       "are counted apart.</p>\n";
+
+  h << "<h2>6. Plots</h2>\n";
+  if (!plots_note.empty()) h << "<p class='warn'>Plots are missing: " << escape(plots_note) << "</p>\n";
+  for (std::size_t i = 0; i < plot_list.size() && i < svgs.size(); ++i)
+    h << "<figure>" << svgs[i] << "<figcaption>(" << i + 1 << ") " << plot_list[i].title << " — data: "
+      << plot_list[i].name << ".csv</figcaption></figure>\n";
+  h << "</body></html>\n";
+  return h.str();
+}
+
+}  // namespace
+
+WrittenReport write_verification_report(const VerificationReport& r, const std::string& directory) {
+  const fs::path dir(directory);
+  std::error_code error;
+  fs::create_directories(dir, error);
+  if (error) throw InputError("cannot create output directory '" + directory + "': " + error.message());
+  write_data(r, dir);
+  WrittenReport written;
+  written.json = (dir / "report.json").string();
+  written.html = (dir / "report.html").string();
+  write_file(dir / "report.json", to_json(r).dump(2) + "\n");
+
+  const std::vector<Plot> plot_list = plots(r);
+  std::vector<std::string> svgs;
+  if (std::system("command -v gnuplot >/dev/null 2>&1") != 0) {
+    written.plots_note = "gnuplot is not installed (Debian package gnuplot-nox); the CSV data are in " + directory;
+  } else {
+    for (const Plot& p : plot_list) {
+      write_file(dir / (p.name + ".gp"), p.script);
+      const std::string command = fmt::format("cd '{}' && gnuplot '{}.gp' > '{}.svg' 2>'{}.log'", dir.string(), p.name,
+                                              p.name, p.name);
+      const std::string svg = std::system(command.c_str()) == 0 ? inline_svg(read_file(dir / (p.name + ".svg"))) : "";
+      if (svg.empty()) {
+        written.plots_note = "gnuplot failed on " + p.name + ".gp (see " + p.name + ".log)";
+        break;
+      }
+      svgs.push_back(svg);
+    }
+  }
+  written.plots = written.plots_note.empty();
+  write_file(dir / "report.html", html(r, plot_list, written.plots ? svgs : std::vector<std::string>{}, written.plots_note));
+  return written;
+}
+
+}  // namespace obsgain
