@@ -1,23 +1,41 @@
-// design-gains on the Pendubot end to end (bounds, Lyapunov, both certificates), as the app runs it.
-// Target: median under 0.2 s. Run: build/bench/bench_design --benchmark_repetitions=10
+// design-gains on the Pendubot end to end (bounds, Lyapunov, both certificates), as the app runs it, with
+// numeric bounds (target: median under 0.2 s) and with certified bounds; and verify-bounds' computation
+// (certified bounds, 200 Monte Carlo trials, plot data; target under 60 s on 2 cores).
+// Run: build/bench/bench_design --benchmark_repetitions=5
 #include "obsgain/design.hpp"
 #include "obsgain/planar_2r.hpp"
+#include "obsgain/verification.hpp"
 
 #include <benchmark/benchmark.h>
 
 namespace {
 
-void DesignGainsPendubot(benchmark::State& state, bool optimize_shape) {
+void DesignGainsPendubot(benchmark::State& state, bool optimize_shape, obsgain::BoundMethod method) {
   const obsgain::Model model = obsgain::pendubot();
   obsgain::DesignOptions options;
-  options.bound_method = obsgain::BoundMethod::numeric;  // bounds are not under test here
   options.gamma = 1.27;
   options.optimize_shape = optimize_shape;
+  options.bound_method = method;
   for (auto _ : state) benchmark::DoNotOptimize(obsgain::design_gains(model, options));
 }
 
-BENCHMARK_CAPTURE(DesignGainsPendubot, alpha_beta_1, false)->Unit(benchmark::kMillisecond)->UseRealTime();
-BENCHMARK_CAPTURE(DesignGainsPendubot, optimize_shape, true)->Unit(benchmark::kMillisecond)->UseRealTime();
+void VerifyPendubot(benchmark::State& state) {
+  const obsgain::Model model = obsgain::pendubot();
+  obsgain::VerificationOptions options;
+  options.design.gamma = 1.27;
+  for (auto _ : state) benchmark::DoNotOptimize(obsgain::verify_design(model, options));
+}
+
+using obsgain::BoundMethod;
+BENCHMARK_CAPTURE(DesignGainsPendubot, numeric, false, BoundMethod::numeric)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK_CAPTURE(DesignGainsPendubot, numeric_optimize_shape, true, BoundMethod::numeric)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+BENCHMARK_CAPTURE(DesignGainsPendubot, certified, false, BoundMethod::certified)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->Iterations(1);
+BENCHMARK(VerifyPendubot)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1);
 
 }  // namespace
 
