@@ -65,6 +65,7 @@ TEST(DesignGainsApp, RefusesBadInputWithOneLineAndExit2) {
   expect_refused("--gamma 1 --bounds guessed", "bounds");
   expect_refused("--gamma 1 --optimize-shape --alpha 2", "optimize-shape");
   expect_refused("--gamma 1 --no-such-flag", "no-such-flag");
+  expect_refused("--robot /nonexistent/arm.json --gamma 1", "cannot read model file '/nonexistent/arm.json'");
 }
 
 TEST(DesignGainsApp, JsonOnStdoutAndTableOtherwise) {

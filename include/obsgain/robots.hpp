@@ -10,7 +10,7 @@ namespace obsgain {
 
 std::vector<std::string> builtin_robots();
 
-// "pendubot", or a path to a model file. Throws InputError naming the robot when it cannot be loaded.
+// "pendubot", or a path to a JSON model file (model_file.hpp). Throws InputError naming the robot when it cannot be loaded.
 Model load_robot(const std::string& name_or_file);
 
 }  // namespace obsgain

@@ -1,0 +1,21 @@
+// Robots from model files: JSON for the lumped planar two-link family of the paper.
+//   { "name": "my-arm", "type": "planar_2r", "pi": [p1, p2, p3, p4, p5], "g0": 9.81,
+//     "friction": [f1, f2], "input_matrix": [[1, 0], [0, 1]], "velocity_bounds": [3, 4] }
+// name, type, pi required; g0 (9.81), friction (0), input_matrix (identity), velocity_bounds (none: then
+// --vmax is required) optional. Every error names the file and the field.
+#pragma once
+
+#include "obsgain/model.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <string>
+
+namespace obsgain {
+
+Model load_model_file(const std::string& path);
+
+// The same from parsed JSON; `source` names the file in error messages.
+Model model_from_json(const nlohmann::json& description, const std::string& source);
+
+}  // namespace obsgain
