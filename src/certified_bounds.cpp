@@ -85,7 +85,7 @@ struct Box {
 
 // Best-first branch and bound: always split the box with the largest upper bound, so the global upper is
 // the top of the queue; stop when it is within the gap of the best point value.
-Bracket branch_and_bound(const Model& model, const std::vector<int>& joints, const Eigen::VectorXd& fixed_q,
+Bracket branch_and_bound(const std::vector<int>& joints, const Eigen::VectorXd& fixed_q,
                          const IntervalVector& domain, const std::function<double(const IntervalVector&)>& upper,
                          const std::function<double(const Eigen::VectorXd&)>& point, const Eigen::VectorXd& seed,
                          const CertifiedOptions& options) {
@@ -163,7 +163,7 @@ std::optional<CertifiedBounds> certify_bounds(const Model& model, const BoundRep
     const double lambda = smallest_eigenvalue_lower_bound(dynamics->mass_matrix(q));
     return lambda > 0.0 ? (Interval(1.0) / Interval(lambda)).upper() : std::numeric_limits<double>::infinity();
   };
-  result.M0 = branch_and_bound(model, joints, fixed_q, domain, m0_upper,
+  result.M0 = branch_and_bound(joints, fixed_q, domain, m0_upper,
                                [&](const Eigen::VectorXd& q) { return inverse_inertia_norm(model, q); },
                                numeric.M0.q, options);
 
@@ -188,7 +188,7 @@ std::optional<CertifiedBounds> certify_bounds(const Model& model, const BoundRep
     for (unsigned c = 0; c < count; ++c) best = std::max(best, coriolis_jacobian_norm(model, q, vertices.col(c)));
     return best;
   };
-  result.B = branch_and_bound(model, joints, fixed_q, domain, b_upper, b_point, numeric.B.q, options);
+  result.B = branch_and_bound(joints, fixed_q, domain, b_upper, b_point, numeric.B.q, options);
 
   const auto l_upper = [&](const IntervalVector& q) {
     bool invertible = false;
@@ -220,7 +220,7 @@ std::optional<CertifiedBounds> certify_bounds(const Model& model, const BoundRep
       for (unsigned s = 0; s < count; ++s) best = std::max(best, joint_lipschitz_norm(model, q, vertices.col(c), pattern(s)));
     return best;
   };
-  result.L_joint = branch_and_bound(model, joints, fixed_q, domain, l_upper, l_point, numeric.L_joint.q, options);
+  result.L_joint = branch_and_bound(joints, fixed_q, domain, l_upper, l_point, numeric.L_joint.q, options);
   return result;
 }
 

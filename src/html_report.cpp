@@ -129,12 +129,6 @@ std::string table_row(const std::vector<std::string>& cells, bool header = false
 
 std::string number(double x) { return fmt::format("{:.7g}", x); }
 
-std::string vector_text(const Eigen::VectorXd& v) {
-  std::string s = "(";
-  for (Eigen::Index i = 0; i < v.size(); ++i) s += (i ? ", " : "") + fmt::format("{:.6g}", v(i));
-  return s + ")";
-}
-
 std::string html(const VerificationReport& r, const std::vector<Plot>& plot_list, const std::vector<std::string>& svgs,
                  const std::string& plots_note) {
   const Design& d = r.design;
@@ -152,7 +146,7 @@ std::string html(const VerificationReport& r, const std::vector<Plot>& plot_list
   h << "<h2>1. Model and assumption</h2>\n<p>Robot <b>" << escape(r.robot) << "</b>, " << d.dof
     << " joints. Saturated Luenberger observer (Celani) with gains k1 = θα, k2 = θ²β. "
        "<b>Assumption:</b> the observed trajectory keeps its joint velocities in the box |v<sub>i</sub>| ≤ V<sub>i</sub>, V = "
-    << vector_text(d.velocity_bounds)
+    << format_vector(d.velocity_bounds)
     << " rad/s. Everything below is certified for every initial observer state, for every input, and only "
        "while that assumption holds.</p>\n";
   for (const auto& w : d.warnings) h << "<p class='warn'>Warning: " << escape(w) << "</p>\n";
@@ -166,9 +160,9 @@ std::string html(const VerificationReport& r, const std::vector<Plot>& plot_list
     << "</p>\n<table>\n"
     << table_row({"constant", "lower (attained)", "upper (certified)", "gap", "argmax", "NLopt", "Ipopt", "boxes"}, true);
   const auto bound_row = [&](const std::string& name, const BoundMaximum& m, const BoundBracket& k) {
-    std::string where = "q = " + vector_text(m.q);
-    if (m.velocity_vertex.size()) where += ", v = " + vector_text(m.velocity_vertex);
-    if (m.saturation_pattern.size()) where += ", D = diag" + vector_text(m.saturation_pattern);
+    std::string where = "q = " + format_vector(m.q);
+    if (m.velocity_vertex.size()) where += ", v = " + format_vector(m.velocity_vertex);
+    if (m.saturation_pattern.size()) where += ", D = diag" + format_vector(m.saturation_pattern);
     h << table_row({name, number(b.certified ? k.lower : m.value), b.certified ? number(k.upper) : "—",
                     b.certified ? fmt::format("{:.1e}", (k.upper - k.lower) / k.upper) : "—", where,
                     number(m.global_value), number(m.polish_value), b.certified ? std::to_string(k.boxes) : "—"});
@@ -186,15 +180,7 @@ std::string html(const VerificationReport& r, const std::vector<Plot>& plot_list
     << ".</p>\n";
 
   h << "<h2>4. Certificates side by side</h2>\n<table>\n" << table_row({"", "paper (Theorem 1)", "tight (bounded-real)"}, true);
-  const auto cert_row = [&](const std::string& label, double p, double t) { h << table_row({label, number(p), number(t)}); };
-  cert_row(d.target_gamma ? "θ* for the target γ = " + number(*d.target_gamma) : "θ* (any positive rate)",
-           d.paper.theta_star, d.tight.theta_star);
-  cert_row("θ chosen", d.paper.theta, d.tight.theta);
-  cert_row("γ certified at θ", d.paper.gamma, d.tight.gamma);
-  cert_row("envelope rate", d.paper.envelope_gamma, d.tight.envelope_gamma);
-  cert_row("k (envelope constant)", d.paper.k, d.tight.k);
-  cert_row("k1 = θα", d.paper.k1, d.tight.k1);
-  cert_row("k2 = θ²β", d.paper.k2, d.tight.k2);
+  for (const ComparisonRow& row : certificate_comparison(d)) h << table_row({row.label, number(row.paper), number(row.tight)});
   h << "</table>\n<p>Selected: <b>" << to_string(d.certificate) << "</b>. "
     << (d.selected().certified
             ? fmt::format("<span class='ok'>Certified</span>: ||e(t)|| ≤ {:.6g} ||e(0)|| e<sup>−{:.6g} t</sup>.", d.selected().k,

@@ -28,20 +28,31 @@ nlohmann::json bracket_json(const BoundBracket& b) {
           {"seconds", b.seconds}};
 }
 
-std::string vec(const Eigen::VectorXd& v) {
+std::string where(const BoundMaximum& m) {
+  std::string s = "q = " + format_vector(m.q);
+  if (m.velocity_vertex.size()) s += ", v = " + format_vector(m.velocity_vertex);
+  if (m.saturation_pattern.size()) s += ", D = diag" + format_vector(m.saturation_pattern);
+  return s;
+}
+
+}  // namespace
+
+std::string format_vector(const Eigen::VectorXd& v) {
   std::string s = "(";
   for (Eigen::Index i = 0; i < v.size(); ++i) s += fmt::format("{}{:.6g}", i ? ", " : "", v(i));
   return s + ")";
 }
 
-std::string where(const BoundMaximum& m) {
-  std::string s = "q = " + vec(m.q);
-  if (m.velocity_vertex.size()) s += ", v = " + vec(m.velocity_vertex);
-  if (m.saturation_pattern.size()) s += ", D = diag" + vec(m.saturation_pattern);
-  return s;
+std::vector<ComparisonRow> certificate_comparison(const Design& d) {
+  return {{d.target_gamma ? "theta* (smallest gain for the target)" : "theta* (any positive rate)", d.paper.theta_star,
+           d.tight.theta_star},
+          {"theta (chosen)", d.paper.theta, d.tight.theta},
+          {"gamma certified at theta", d.paper.gamma, d.tight.gamma},
+          {"envelope rate", d.paper.envelope_gamma, d.tight.envelope_gamma},
+          {"k (envelope constant)", d.paper.k, d.tight.k},
+          {"k1 = theta alpha", d.paper.k1, d.tight.k1},
+          {"k2 = theta^2 beta", d.paper.k2, d.tight.k2}};
 }
-
-}  // namespace
 
 nlohmann::json to_json(const Eigen::MatrixXd& matrix) {
   nlohmann::json rows = nlohmann::json::array();
@@ -122,7 +133,7 @@ std::string format_report(const Design& d) {
   std::ostringstream out;
   const auto& b = d.bounds;
   out << fmt::format("obsgain design for '{}' ({} joints), velocity box |v_i| <= {}\n\n", d.robot_name, d.dof,
-                     vec(d.velocity_bounds));
+                     format_vector(d.velocity_bounds));
   out << fmt::format("Bounds ({}: NLopt DIRECT-L, then Ipopt polish{})\n", b.method,
                      b.certified ? "; then interval branch and bound" : "");
   out << fmt::format("  {:<8} {:>14} {:>14} {:>14}   {}\n", "", "value", "NLopt", "Ipopt", "argmax");
@@ -152,19 +163,10 @@ std::string format_report(const Design& d) {
 
   out << fmt::format("Certificates{}\n", d.target_gamma ? fmt::format(" for target gamma = {:.6g}", *d.target_gamma)
                                                          : fmt::format(" at theta = {:.6g}", d.paper.theta));
-  out << fmt::format("  {:<34} {:>16} {:>16}\n", "", "paper", "tight");
-  const auto row = [&](const std::string& label, double p, double t) {
-    out << fmt::format("  {:<34} {:>16.6g} {:>16.6g}\n", label, p, t);
-  };
-  row(d.target_gamma ? "theta* (smallest gain)" : "theta* (any positive rate)", d.paper.theta_star,
-      d.tight.theta_star);
-  row("theta (chosen)", d.paper.theta, d.tight.theta);
-  row("gamma certified at theta", d.paper.gamma, d.tight.gamma);
-  row("envelope rate", d.paper.envelope_gamma, d.tight.envelope_gamma);
-  row("k (envelope constant)", d.paper.k, d.tight.k);
-  row("k1 = theta alpha", d.paper.k1, d.tight.k1);
-  row("k2 = theta^2 beta", d.paper.k2, d.tight.k2);
-  if (d.tight.lmi_max_eig) out << fmt::format("  {:<34} {:>16} {:>16.3e}\n", "LMI largest eigenvalue", "", *d.tight.lmi_max_eig);
+  out << fmt::format("  {:<38} {:>14} {:>16}\n", "", "paper", "tight");
+  for (const ComparisonRow& row : certificate_comparison(d))
+    out << fmt::format("  {:<38} {:>14.6g} {:>16.6g}\n", row.label, row.paper, row.tight);
+  if (d.tight.lmi_max_eig) out << fmt::format("  {:<38} {:>14} {:>16.3e}\n", "LMI largest eigenvalue", "", *d.tight.lmi_max_eig);
   out << "\n";
 
   const CertificateSummary& s = d.selected();

@@ -19,6 +19,16 @@ nlohmann::json certified_json(const BoundReport& bounds);  // {M0, B, L_joint}: 
 nlohmann::json to_json(const CertificateSummary& summary);
 nlohmann::json to_json(const Design& design);
 
+// "(1, 2.5)": vectors in the human reports.
+std::string format_vector(const Eigen::VectorXd& v);
+
+// The paper and tight certificates side by side, row by row (the text and HTML reports both show these).
+struct ComparisonRow {
+  std::string label;
+  double paper, tight;
+};
+std::vector<ComparisonRow> certificate_comparison(const Design& design);
+
 // The design as a table a control engineer reads: bounds and where they sit, S, both certificates side by
 // side, the chosen gains, and warnings.
 std::string format_report(const Design& design);
