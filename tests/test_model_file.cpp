@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <limits>
 
 namespace {
 
@@ -100,7 +101,7 @@ TEST(ModelFile, MalformedDescriptionsNameTheField) {
   j["input_matrix"] = {{1, 0}};
   expect_refused(j, "'input_matrix' must be 2 rows");
   j = valid();
-  j["g0"] = 1e400;  // parsed as infinity
+  j["g0"] = std::numeric_limits<double>::infinity();
   expect_refused(j, "'g0' must be finite");
 }
 
