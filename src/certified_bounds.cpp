@@ -151,6 +151,8 @@ std::optional<CertifiedBounds> certify_bounds(const Model& model, const BoundRep
   }
   const Eigen::MatrixXd vertices = box_vertices(V);
   const unsigned count = static_cast<unsigned>(vertices.cols());
+  // J(q, -w) = -J(q, w): with F = 0 the vertices with w_n < 0 repeat the others (as in compute_bounds).
+  const unsigned first = model.friction.isZero(0.0) ? count / 2 : 0u;
   const auto pattern = [n](unsigned s) {
     Eigen::VectorXd D(n);
     for (int i = 0; i < n; ++i) D(i) = ((s >> i) & 1u) ? 1.0 : 0.0;
@@ -180,12 +182,12 @@ std::optional<CertifiedBounds> certify_bounds(const Model& model, const BoundRep
   const auto b_upper = [&](const IntervalVector& q) {
     const std::vector<IntervalMatrix> N = dynamics->coriolis_tensors(q);
     double best = 0.0;
-    for (unsigned c = 0; c < count; ++c) best = std::max(best, norm_upper_bound(interval_jacobian(N, vertices.col(c))));
+    for (unsigned c = first; c < count; ++c) best = std::max(best, norm_upper_bound(interval_jacobian(N, vertices.col(c))));
     return best;
   };
   const auto b_point = [&](const Eigen::VectorXd& q) {
     double best = 0.0;
-    for (unsigned c = 0; c < count; ++c) best = std::max(best, coriolis_jacobian_norm(model, q, vertices.col(c)));
+    for (unsigned c = first; c < count; ++c) best = std::max(best, coriolis_jacobian_norm(model, q, vertices.col(c)));
     return best;
   };
   result.B = branch_and_bound(joints, fixed_q, domain, b_upper, b_point, numeric.B.q, options);
@@ -196,7 +198,7 @@ std::optional<CertifiedBounds> certify_bounds(const Model& model, const BoundRep
     if (!invertible) return std::numeric_limits<double>::infinity();
     const std::vector<IntervalMatrix> N = dynamics->coriolis_tensors(q);
     double best = 0.0;
-    for (unsigned c = 0; c < count; ++c) {
+    for (unsigned c = first; c < count; ++c) {
       const IntervalMatrix J = interval_jacobian(N, vertices.col(c));
       for (unsigned s = 0; s < count; ++s) {
         IntervalMatrix X(n, n);
@@ -216,7 +218,7 @@ std::optional<CertifiedBounds> certify_bounds(const Model& model, const BoundRep
   };
   const auto l_point = [&](const Eigen::VectorXd& q) {
     double best = 0.0;
-    for (unsigned c = 0; c < count; ++c)
+    for (unsigned c = first; c < count; ++c)
       for (unsigned s = 0; s < count; ++s) best = std::max(best, joint_lipschitz_norm(model, q, vertices.col(c), pattern(s)));
     return best;
   };
