@@ -187,13 +187,13 @@ RiccatiCertificate tight_certificate(double k1, double k2, double L, double gamm
   const double peak = shifted_transfer_peak(k1, k2, gamma);
   if (!(L * peak < 1.0)) return cert;  // no quadratic certificate exists at this rate
   // Inflate L halfway to where the frequency condition would fail, so that the LMI at L is strict.
-  cert.L_inflated = L * (1.0 + 0.5 * (1.0 / (L * peak) - 1.0));
+  const double L_inflated = L * (1.0 + 0.5 * (1.0 / (L * peak) - 1.0));
 
   Eigen::Matrix2d A;
   A << -k1 + gamma, 1.0, -k2, gamma;
   Eigen::Matrix2d R = Eigen::Matrix2d::Zero();
   R(1, 1) = 1.0;
-  Eigen::Matrix2d Q = cert.L_inflated * cert.L_inflated * R;
+  Eigen::Matrix2d Q = L_inflated * L_inflated * R;
   Eigen::Matrix2d P;
   if (!stabilising_riccati(A, R, Q, P)) return cert;
   // L' > L makes the LMI strict only along E; a term ε e1 e1ᵀ, small against the e1 diagonal of
@@ -201,7 +201,10 @@ RiccatiCertificate tight_certificate(double k1, double k2, double L, double gamm
   Q(0, 0) += 1e-6 * std::abs(2.0 * A(0, 0) * P(0, 0));
   if (!stabilising_riccati(A, R, Q, P)) return cert;
   cert.P = P;
-  cert.riccati_residual = (A.transpose() * P + P * A + P * R * P + Q).norm() / Q.norm();
+  // Relative to the size of the terms (ÃᵀP is ~1e11 near the supremum while Q is ~1e3).
+  const Eigen::Matrix2d AtP = A.transpose() * P;
+  cert.riccati_residual = (AtP + AtP.transpose() + P * R * P + Q).norm() /
+                          (2.0 * AtP.norm() + (P * R * P).norm() + Q.norm());
   const Eigen::Vector2d lambda = Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(P, Eigen::EigenvaluesOnly).eigenvalues();
   if (!(lambda(0) > 0.0)) return cert;
   cert.riccati_k = envelope_constant(P);

@@ -227,7 +227,6 @@ std::optional<CertifiedBounds> certify_bounds(const Model& model, const BoundRep
 }
 
 void apply_certified_bounds(BoundReport& report, const CertifiedBounds& certified) {
-  report.method = "certified";
   report.certified = true;
   report.M0_bracket = certified.M0;
   report.B_bracket = certified.B;

@@ -151,7 +151,7 @@ std::string html(const VerificationReport& r, const std::vector<Plot>& plot_list
        "while that assumption holds.</p>\n";
   for (const auto& w : d.warnings) h << "<p class='warn'>Warning: " << escape(w) << "</p>\n";
 
-  h << "<h2>2. Bounds</h2>\n<p>Method: <b>" << b.method
+  h << "<h2>2. Bounds</h2>\n<p>Method: <b>" << b.method()
     << "</b>. The velocity enters through the vertices of the box only (the norms are convex in v and in the "
        "saturation pattern D). The numerical search (NLopt DIRECT-L, then Ipopt) gives values attained at a point; "
     << (b.certified ? "an interval branch and bound (Boost.Interval, outward rounding) gives upper bounds that provably "

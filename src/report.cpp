@@ -75,7 +75,7 @@ nlohmann::json certified_json(const BoundReport& b) {
 }
 
 nlohmann::json to_json(const BoundReport& b) {
-  return {{"method", b.method},
+  return {{"method", b.method()},
           {"velocity_bounds", to_json(b.velocity_bounds)},
           {"M0", b.M0.value},
           {"B", b.B.value},
@@ -134,7 +134,7 @@ std::string format_report(const Design& d) {
   const auto& b = d.bounds;
   out << fmt::format("obsgain design for '{}' ({} joints), velocity box |v_i| <= {}\n\n", d.robot_name, d.dof,
                      format_vector(d.velocity_bounds));
-  out << fmt::format("Bounds ({}: NLopt DIRECT-L, then Ipopt polish{})\n", b.method,
+  out << fmt::format("Bounds ({}: NLopt DIRECT-L, then Ipopt polish{})\n", b.method(),
                      b.certified ? "; then interval branch and bound" : "");
   out << fmt::format("  {:<8} {:>14} {:>14} {:>14}   {}\n", "", "value", "NLopt", "Ipopt", "argmax");
   for (const auto& [name, m] : {std::pair{"M0", &b.M0}, {"B", &b.B}, {"L_joint", &b.L_joint}}) {

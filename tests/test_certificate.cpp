@@ -66,6 +66,7 @@ TEST(TightCertificate, RiccatiCertificateExistsJustBelowTheSupremumOnly) {
   EXPECT_EQ(obsgain::certificate_lmi_max_eig(below.P, k1, k2, kPaperL, 0.999 * sup), below.lmi_max_eig);
   EXPECT_GT(Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(below.P).eigenvalues()(0), 0.0);
   EXPECT_LE(below.k, below.riccati_k);
+  EXPECT_LT(below.riccati_residual, 1e-10);
   const obsgain::RiccatiCertificate above = obsgain::tight_certificate(k1, k2, kPaperL, 1.001 * sup);
   EXPECT_FALSE(above.exists);
   // Nor does the P certified below the supremum work above it.

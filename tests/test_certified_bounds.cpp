@@ -118,7 +118,7 @@ TEST(CertifiedDesign, FallsBackToNumericWithAWarning) {
   obsgain::DesignOptions options;
   options.gamma = 1.27;
   const obsgain::Design design = obsgain::design_gains(model, options);
-  EXPECT_EQ(design.bounds.method, "numeric");
+  EXPECT_STREQ(design.bounds.method(), "numeric");
   EXPECT_FALSE(design.bounds.certified);
   ASSERT_FALSE(design.warnings.empty());
   EXPECT_NE(design.warnings.front().find("cannot be evaluated on intervals"), std::string::npos);

@@ -44,8 +44,8 @@ struct BoundReport {
   BoundMaximum M0, B, L_joint;
   double F_norm = 0.0;
   double L_paper = 0.0;
-  std::string method = "numeric";  // "certified": the values are the brackets' upper ends
-  bool certified = false;
+  bool certified = false;  // the values are the certified brackets' upper ends
+  const char* method() const { return certified ? "certified" : "numeric"; }
   BoundBracket M0_bracket, B_bracket, L_joint_bracket;
   double wall_seconds = 0.0;
 };

@@ -28,8 +28,7 @@ struct RiccatiCertificate {
   bool exists = false;           // a stabilising solution was found and P > 0
   Eigen::Matrix2d P = Eigen::Matrix2d::Zero();
   double gamma = 0.0;            // the rate this P certifies
-  double L_inflated = 0.0;       // the L the Riccati equation was solved with (> L, for strictness)
-  double riccati_residual = 0.0;
+  double riccati_residual = 0.0;  // residual of the Riccati solve, relative to the size of its terms
   double lmi_max_eig = 0.0;      // largest eigenvalue of the LMI at the true L; <= 0 certifies
   double k = 0.0;                // envelope constant sqrt(λmax(P) / λmin(P)) of the returned P
   double riccati_k = 0.0;        // the same for the Riccati solution, before minimising k over the LMI set

@@ -11,8 +11,8 @@
 
 namespace obsgain {
 
-// Boost's cos/sin call cos_down/cos_up on a reduced argument; widen glibc's result (accurate to < 1 ulp in
-// every rounding mode) outward by 4 ulps and clamp to [-1, 1].
+// Boost's cos (and sin, computed as a shifted cos) call cos_down/cos_up on a reduced argument; widen
+// glibc's result (accurate to < 1 ulp in every rounding mode) outward by 4 ulps and clamp to [-1, 1].
 struct OutwardTranscendentals : boost::numeric::interval_lib::rounded_arith_std<double> {
   static double widen_down(double x) {
     for (int i = 0; i < 4; ++i) x = std::nextafter(x, -2.0);
@@ -24,8 +24,6 @@ struct OutwardTranscendentals : boost::numeric::interval_lib::rounded_arith_std<
   }
   double cos_down(double x) { return widen_down(std::cos(x)); }
   double cos_up(double x) { return widen_up(std::cos(x)); }
-  double sin_down(double x) { return widen_down(std::sin(x)); }
-  double sin_up(double x) { return widen_up(std::sin(x)); }
 };
 
 using Interval = boost::numeric::interval<
