@@ -14,7 +14,7 @@ int main(int argc, char** argv) {
   auto* json = app.add_option("--json", json_path, "write JSON to stdout, or to FILE")->expected(0, 1);
   return obsgain::run_app(app, argc, argv, [&] {
     const obsgain::DesignOptions options = obsgain::to_design_options(arguments);
-    const obsgain::Model model = obsgain::load_robot(arguments.robot);
+    const obsgain::Model model = obsgain::load_robot(obsgain::to_robot_source(arguments));
     const obsgain::Design design = obsgain::design_gains(model, options);
     const std::string text = obsgain::to_json(design).dump(2) + "\n";
     if (json->count() > 0 && json_path.empty()) {

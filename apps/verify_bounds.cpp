@@ -22,7 +22,7 @@ int main(int argc, char** argv) {
     options.design = obsgain::to_design_options(design);
     options.monte_carlo = obsgain::to_monte_carlo_options(monte_carlo);
     options.monte_carlo.progress = isatty(STDERR_FILENO) != 0;
-    const obsgain::Model model = obsgain::load_robot(design.robot);
+    const obsgain::Model model = obsgain::load_robot(obsgain::to_robot_source(design));
     const obsgain::VerificationReport report = obsgain::verify_design(model, options);
     const obsgain::WrittenReport written = obsgain::write_verification_report(report, out);
     std::cout << obsgain::format_report(report.design) << "\n" << obsgain::format_report(report.monte_carlo) << "\n";

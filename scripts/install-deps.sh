@@ -9,6 +9,7 @@ packages=(
   build-essential cmake pkg-config
   libeigen3-dev libnlopt-cxx-dev coinor-libipopt-dev libboost-dev
   libcli11-dev nlohmann-json3-dev libfmt-dev libgtest-dev libbenchmark-dev
+  liborocos-kdl-dev libkdl-parser-dev liburdfdom-dev libtinyxml2-dev libconsole-bridge-dev
   gnuplot-nox
 )
 for option in "$@"; do

@@ -159,6 +159,36 @@ Eigen::VectorXd pattern(int n, unsigned c) {
   return D;
 }
 
+// Tracks max λ_max(G) over a family of Gram matrices G = XᵀX without an eigensolver for most of them:
+// λ_max(G) <= ||G||_F, and λ_max(G) <= b² exactly when b² I - G is positive semidefinite (a Cholesky test).
+// Only a G that beats the running maximum is solved, so the result is the exact maximum.
+class LargestSingularValue {
+ public:
+  explicit LargestSingularValue(int n) : shifted_(n, n), llt_(n) {}
+
+  // Returns true (and raises the maximum) when ||X|| = sqrt(λ_max(G)) beats it.
+  bool offer(const Eigen::MatrixXd& G) {
+    if (best_squared_ >= 0.0) {
+      if (G.squaredNorm() <= best_squared_ * best_squared_) return false;
+      shifted_ = -G;
+      shifted_.diagonal().array() += best_squared_;
+      llt_.compute(shifted_);
+      if (llt_.info() == Eigen::Success) return false;
+    }
+    const double largest = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(G, Eigen::EigenvaluesOnly).eigenvalues().maxCoeff();
+    if (largest <= best_squared_) return false;
+    best_squared_ = largest;
+    return true;
+  }
+
+  double value() const { return std::sqrt(std::max(best_squared_, 0.0)); }
+
+ private:
+  double best_squared_ = -1.0;
+  Eigen::MatrixXd shifted_;
+  Eigen::LLT<Eigen::MatrixXd> llt_;
+};
+
 }  // namespace
 
 Eigen::MatrixXd box_vertices(const Eigen::VectorXd& velocity_bounds) {
@@ -191,10 +221,11 @@ BoundReport compute_bounds(const Model& model, const Eigen::VectorXd& velocity_b
   validate_velocity_bounds(model, velocity_bounds);
   const auto start = std::chrono::steady_clock::now();
   const int n = model.dof();
-  // J(q, -w) = -J(q, w): with F = 0 the vertices with w_1 < 0 repeat the others.
-  const bool symmetric = model.friction.isZero(0.0);
   const unsigned vertex_count = 1u << n;
-  const unsigned first_vertex = symmetric ? vertex_count / 2 : 0u;
+  // J(q, -w) = -J(q, w): the vertices with w_n < 0 (bit n-1 clear) repeat the others for ||J||, and for
+  // ||M⁻¹(J D + F)|| too when F = 0.
+  const unsigned half = vertex_count / 2;
+  const unsigned first_lipschitz_vertex = model.friction.isZero(0.0) ? half : 0u;
 
   BoundReport report;
   report.velocity_bounds = velocity_bounds;
@@ -208,20 +239,18 @@ BoundReport compute_bounds(const Model& model, const Eigen::VectorXd& velocity_b
   m0.one_choice = [&](const Eigen::VectorXd& q, int) { return inverse_inertia_norm(model, q); };
   report.M0 = search(model, m0, options);
 
-  // Symmetric case: bit n-1 of the vertex index is the sign of w_n; fixing it halves the work.
   BoundProblem b;
   b.all_choices = [&](const Eigen::VectorXd& q, int& choice) {
     std::vector<Eigen::MatrixXd> N;
     model.dynamics->coriolis_tensors(q, N);
-    double best = -1.0;
-    for (unsigned c = first_vertex; c < vertex_count; ++c) {
-      const double value = coriolis_jacobian(N, vertex(velocity_bounds, c)).operatorNorm();
-      if (value > best) {
-        best = value;
-        choice = static_cast<int>(c);
-      }
+    LargestSingularValue largest(n);
+    Eigen::MatrixXd J(n, n), G(n, n);
+    for (unsigned c = half; c < vertex_count; ++c) {
+      J = coriolis_jacobian(N, vertex(velocity_bounds, c));
+      G.noalias() = J.transpose() * J;
+      if (largest.offer(G)) choice = static_cast<int>(c);
     }
-    return best;
+    return largest.value();
   };
   b.one_choice = [&](const Eigen::VectorXd& q, int c) {
     return coriolis_jacobian_norm(model, q, vertex(velocity_bounds, static_cast<unsigned>(c)));
@@ -233,24 +262,35 @@ BoundReport compute_bounds(const Model& model, const Eigen::VectorXd& velocity_b
     report.B.velocity_vertex = vertex(velocity_bounds, static_cast<unsigned>(choice));
   }
 
-  // Choices for L_joint: vertex index in the low n bits, saturation pattern in the next n bits.
+  // Choices for L_joint: vertex index in the low n bits, saturation pattern in the next n bits. With
+  // X = A D + R, A = M⁻¹J, R = M⁻¹F: XᵀX = D AᵀA D + D AᵀR + RᵀA D + RᵀR, so each of the 2^n patterns costs
+  // O(n²) once the three Gram blocks of a vertex are formed.
   BoundProblem lj;
   lj.all_choices = [&](const Eigen::VectorXd& q, int& choice) {
     std::vector<Eigen::MatrixXd> N;
     model.dynamics->coriolis_tensors(q, N);
     const Eigen::LLT<Eigen::MatrixXd> llt = factor_inertia(model, q);
-    double best = -1.0;
-    for (unsigned c = first_vertex; c < vertex_count; ++c) {
-      const Eigen::MatrixXd J = coriolis_jacobian(N, vertex(velocity_bounds, c));
-      for (unsigned s = 0; s < vertex_count; ++s) {
-        const double value = llt.solve(J * pattern(n, s).asDiagonal() + model.friction).operatorNorm();
-        if (value > best) {
-          best = value;
-          choice = static_cast<int>(c | (s << n));
+    const Eigen::MatrixXd R = llt.solve(model.friction);
+    const Eigen::MatrixXd RR = R.transpose() * R;
+    LargestSingularValue largest(n);
+    Eigen::MatrixXd A(n, n), AA(n, n), AR(n, n), G(n, n);
+    for (unsigned c = first_lipschitz_vertex; c < vertex_count; ++c) {
+      A = llt.solve(coriolis_jacobian(N, vertex(velocity_bounds, c)));
+      AA.noalias() = A.transpose() * A;
+      AR.noalias() = A.transpose() * R;
+      // Full patterns first: they usually win, and a high running maximum prunes the rest.
+      for (unsigned s = vertex_count; s-- > 0;) {
+        for (int j = 0; j < n; ++j) {
+          const bool dj = (s >> j) & 1u;
+          for (int i = 0; i < n; ++i) {
+            const bool di = (s >> i) & 1u;
+            G(i, j) = RR(i, j) + (di && dj ? AA(i, j) : 0.0) + (di ? AR(i, j) : 0.0) + (dj ? AR(j, i) : 0.0);
+          }
         }
+        if (largest.offer(G)) choice = static_cast<int>(c | (s << n));
       }
     }
-    return best;
+    return largest.value();
   };
   lj.one_choice = [&](const Eigen::VectorXd& q, int choice) {
     const auto c = static_cast<unsigned>(choice);

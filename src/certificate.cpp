@@ -118,21 +118,35 @@ namespace {
 
 // The stabilising solution of Aᵀ P + P A + P R P + Q = 0 from the stable invariant subspace of the
 // Hamiltonian [[A, R], [-Q, -Aᵀ]]; false when it has eigenvalues on the imaginary axis.
+// Solved in balanced coordinates: with x = T z, T = diag(1, t), P = T⁻¹ P_z T⁻¹ / c solves the equation with
+// A_z = T⁻¹ A T, R_z = T⁻¹ R T⁻¹ / c, Q_z = c T Q T. t equalises A's off-diagonal entries (1 and -k2) and
+// c the sizes of R_z and Q_z; unbalanced, the Hamiltonian spans k2² : 1 and for θ ~ 10³ the solution
+// loses every digit the LMI test needs.
 bool stabilising_riccati(const Eigen::Matrix2d& A, const Eigen::Matrix2d& R, const Eigen::Matrix2d& Q,
                          Eigen::Matrix2d& P) {
+  const double t = std::sqrt(std::sqrt(std::abs(A(1, 0)) / std::max(std::abs(A(0, 1)), 1e-300)));
+  const Eigen::Vector2d T(1.0, t > 0.0 && std::isfinite(t) ? t : 1.0);
+  const Eigen::Matrix2d A_z = T.cwiseInverse().asDiagonal() * A * T.asDiagonal();
+  Eigen::Matrix2d R_z = T.cwiseInverse().asDiagonal() * R * T.cwiseInverse().asDiagonal();
+  Eigen::Matrix2d Q_z = T.asDiagonal() * Q * T.asDiagonal();
+  const double c = R_z.norm() > 0.0 && Q_z.norm() > 0.0 ? std::sqrt(R_z.norm() / Q_z.norm()) : 1.0;
+  R_z /= c;
+  Q_z *= c;
+
   Eigen::Matrix4d H;
-  H << A, R, -Q, -A.transpose();
+  H << A_z, R_z, -Q_z, -A_z.transpose();
   Eigen::ComplexSchur<Eigen::Matrix4cd> schur(H.cast<std::complex<double>>());
-  Eigen::Matrix4cd T = schur.matrixT();
+  Eigen::Matrix4cd U = schur.matrixT();
   Eigen::Matrix4cd Z = schur.matrixU();
-  order_stable_first(T, Z);
+  order_stable_first(U, Z);
   const double scale = H.norm();
   for (int k = 0; k < 4; ++k) {
-    const bool stable = T(k, k).real() < -1e-10 * scale;
-    const bool anti_stable = T(k, k).real() > 1e-10 * scale;
+    const bool stable = U(k, k).real() < -1e-10 * scale;
+    const bool anti_stable = U(k, k).real() > 1e-10 * scale;
     if ((k < 2 && !stable) || (k >= 2 && !anti_stable)) return false;
   }
-  const Eigen::Matrix2d P_raw = (Z.bottomLeftCorner<2, 2>() * Z.topLeftCorner<2, 2>().inverse()).real();
+  const Eigen::Matrix2d P_z = (Z.bottomLeftCorner<2, 2>() * Z.topLeftCorner<2, 2>().inverse()).real();
+  const Eigen::Matrix2d P_raw = T.cwiseInverse().asDiagonal() * P_z * T.cwiseInverse().asDiagonal() / c;
   P = 0.5 * (P_raw + P_raw.transpose());
   return P.allFinite();
 }

@@ -32,7 +32,11 @@ Eigen::VectorXd parse_number_list(const std::string& name, const std::string& te
 }
 
 void add_design_options(CLI::App& app, DesignArguments& a) {
-  app.add_option("--robot", a.robot, "built-in robot name (pendubot) or model file")->capture_default_str();
+  app.add_option("--robot", a.robot, "built-in robot name (pendubot), model file (*.json) or URDF (*.urdf)")
+      ->capture_default_str();
+  app.add_option("--base-link", a.base_link, "URDF: the chain's base link (default: the root)");
+  app.add_option("--tip-link", a.tip_link, "URDF: the chain's tip link (default: the single leaf)");
+  app.add_option("--actuated", a.actuated, "URDF: 0/1 per joint, e.g. 1,0 for a Pendubot (default: all)");
   app.add_option("--vmax", a.vmax, "velocity bounds V1,...,Vn [rad/s] (default: the model's)");
   app.add_option("--gamma", a.gamma, "target convergence rate [1/s]: theta is the smallest gain certifying it");
   app.add_option("--theta", a.theta, "evaluate this gain theta and report the certified rate");
@@ -74,6 +78,17 @@ DesignOptions to_design_options(const DesignArguments& a) {
   }
   validate_design_options(o);
   return o;
+}
+
+RobotSource to_robot_source(const DesignArguments& a) {
+  RobotSource source{a.robot, a.base_link, a.tip_link, {}};
+  if (!a.actuated.empty()) {
+    for (const double flag : parse_number_list("actuated", a.actuated)) {
+      if (flag != 0.0 && flag != 1.0) throw InputError(fmt::format("actuated: flag {} must be 0 or 1", flag));
+      source.actuated.push_back(static_cast<int>(flag));
+    }
+  }
+  return source;
 }
 
 void add_monte_carlo_options(CLI::App& app, MonteCarloArguments& a) {
@@ -129,7 +144,7 @@ MonteCarloOptions to_monte_carlo_options(const MonteCarloArguments& a) {
 ValidationTarget load_validation_target(const DesignArguments& design, const std::string& design_file) {
   if (design_file.empty()) {
     const DesignOptions options = to_design_options(design);
-    Model model = load_robot(design.robot);
+    Model model = load_robot(to_robot_source(design));
     const Design d = design_gains(model, options);
     return {std::move(model), d.velocity_bounds, observer_certificate(d)};
   }

@@ -93,6 +93,7 @@ Design design_from_bounds(const Model& model, const BoundReport& bounds, const D
   validate_design_options(options);
   Design d;
   d.robot_name = model.name;
+  d.robot_source = model.source;
   d.dof = model.dof();
   d.velocity_bounds = bounds.velocity_bounds;
   d.bounds = bounds;

@@ -109,7 +109,10 @@ nlohmann::json to_json(const Design& d) {
   design["target_gamma"] = d.target_gamma ? nlohmann::json(*d.target_gamma) : nlohmann::json(nullptr);
   design["rate_margin"] = d.rate_margin;
   nlohmann::json j = {
-      {"robot", {{"name", d.robot_name}, {"dof", d.dof}}},
+      {"robot",
+       {{"name", d.robot_name}, {"dof", d.dof}, {"source", d.robot_source.robot},
+        {"base_link", d.robot_source.base_link}, {"tip_link", d.robot_source.tip_link},
+        {"actuated", d.robot_source.actuated}}},
       {"velocity_bounds", to_json(d.velocity_bounds)},
       {"bounds", bounds},
       {"lyapunov",
@@ -268,7 +271,11 @@ nlohmann::json to_json(const VerificationReport& r) {
 SavedDesign saved_design_from_json(const nlohmann::json& j) {
   try {
     SavedDesign saved;
-    saved.robot = j.at("robot").at("name").get<std::string>();
+    const nlohmann::json& robot = j.at("robot");
+    saved.robot.robot = robot.at("source").get<std::string>();
+    saved.robot.base_link = robot.value("base_link", "");
+    saved.robot.tip_link = robot.value("tip_link", "");
+    saved.robot.actuated = robot.value("actuated", std::vector<int>{});
     const auto bounds = j.at("velocity_bounds").get<std::vector<double>>();
     saved.velocity_bounds = Eigen::Map<const Eigen::VectorXd>(bounds.data(), static_cast<Eigen::Index>(bounds.size()));
     const nlohmann::json& d = j.at("design");

@@ -2,18 +2,39 @@
 
 #include "obsgain/model_file.hpp"
 #include "obsgain/planar_2r.hpp"
+#include "obsgain/urdf_model.hpp"
 
+#include <filesystem>
 
 namespace obsgain {
 
 std::vector<std::string> builtin_robots() { return {"pendubot"}; }
 
-Model load_robot(const std::string& name_or_file) {
-  if (name_or_file == "pendubot") return pendubot();
-  if (name_or_file.ends_with(".json")) return load_model_file(name_or_file);
+namespace {
+
+Model load(const RobotSource& source) {
+  const std::string& robot = source.robot;
+  if (robot.ends_with(".urdf")) return load_urdf(source);
+  if (!source.base_link.empty() || !source.tip_link.empty() || !source.actuated.empty())
+    throw InputError("--base-link, --tip-link and --actuated apply to URDF robots only, not to '" + robot + "'");
+  if (robot == "pendubot") return pendubot();
+  if (robot.ends_with(".json")) return load_model_file(robot);
   std::string known;
   for (const auto& name : builtin_robots()) known += (known.empty() ? "" : ", ") + name;
-  throw InputError("unknown robot '" + name_or_file + "' (built in: " + known + "; or a model file *.json)");
+  throw InputError("unknown robot '" + robot + "' (built in: " + known + "; or a model file *.json or *.urdf)");
+}
+
+}  // namespace
+
+Model load_robot(const RobotSource& source) {
+  Model model = load(source);
+  model.source = source;
+  if (source.robot.ends_with(".json") || source.robot.ends_with(".urdf")) {
+    std::error_code error;
+    const std::filesystem::path absolute = std::filesystem::absolute(source.robot, error);
+    if (!error) model.source.robot = absolute.lexically_normal().string();
+  }
+  return model;
 }
 
 }  // namespace obsgain

@@ -51,7 +51,7 @@ TEST(Model, CoriolisTensorsReproduceCTimesV) {
 }
 
 TEST(Model, UnknownRobotAndBadBoundsAreRefused) {
-  EXPECT_THROW(obsgain::load_robot("nope"), obsgain::InputError);
+  EXPECT_THROW(obsgain::load_robot({"nope"}), obsgain::InputError);
   const obsgain::Model model = obsgain::pendubot();
   EXPECT_THROW(obsgain::validate_velocity_bounds(model, Eigen::Vector3d(1, 1, 1)), obsgain::InputError);
   EXPECT_THROW(obsgain::validate_velocity_bounds(model, Eigen::Vector2d(0, 1)), obsgain::InputError);

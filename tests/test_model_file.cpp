@@ -14,7 +14,7 @@ namespace {
 const std::string examples = OBSGAIN_EXAMPLES_DIR;
 
 TEST(ModelFile, PendubotFileEqualsTheBuiltIn) {
-  const obsgain::Model file = obsgain::load_robot(examples + "/pendubot.json");
+  const obsgain::Model file = obsgain::load_robot({examples + "/pendubot.json"});
   const obsgain::Model builtin = obsgain::pendubot();
   const obsgain::BoundReport a = obsgain::compute_bounds(file, file.velocity_bounds);
   const obsgain::BoundReport b = obsgain::compute_bounds(builtin, builtin.velocity_bounds);
@@ -29,7 +29,7 @@ TEST(ModelFile, PendubotFileEqualsTheBuiltIn) {
 // M0 = 1/λmin(M(0)); B = 2π3 max over the two sign patterns of ||[[−w2, −(w1 + w2)], [w1, 0]]|| at |sin q2| = 1.
 void expect_hand_derived(const std::string& file, double pi1, double pi2, double pi3, const Eigen::Vector2d& V,
                          double friction_norm) {
-  const obsgain::Model model = obsgain::load_robot(examples + "/" + file);
+  const obsgain::Model model = obsgain::load_robot({examples + "/" + file});
   const obsgain::BoundReport r = obsgain::compute_bounds(model, model.velocity_bounds);
   const double tr = pi1 + 2 * pi2 + 2 * pi3, det = pi1 * pi2 - pi3 * pi3;
   const double M0 = 2.0 / (tr - std::sqrt(tr * tr - 4 * det)) ;
@@ -49,7 +49,7 @@ void expect_hand_derived(const std::string& file, double pi1, double pi2, double
 TEST(ModelFile, ExamplesAgainstHandDerivedValues) {
   expect_hand_derived("acrobot.json", 0.3333, 0.3333, 0.25, Eigen::Vector2d(6, 12), 0.0);
   expect_hand_derived("two_link_arm.json", 1.2, 0.25, 0.3, Eigen::Vector2d(3, 4), 0.5);
-  const obsgain::Model acrobot = obsgain::load_robot(examples + "/acrobot.json");
+  const obsgain::Model acrobot = obsgain::load_robot({examples + "/acrobot.json"});
   EXPECT_EQ(acrobot.input_matrix, Eigen::MatrixXd(Eigen::Vector2d(0, 1)));
 }
 
@@ -106,11 +106,11 @@ TEST(ModelFile, MalformedDescriptionsNameTheField) {
 }
 
 TEST(ModelFile, FilesThatCannotBeReadOrParsed) {
-  EXPECT_THROW(obsgain::load_robot("/nonexistent/robot.json"), obsgain::InputError);
+  EXPECT_THROW(obsgain::load_robot({"/nonexistent/robot.json"}), obsgain::InputError);
   const std::string broken = ::testing::TempDir() + "/obsgain_broken.json";
   std::ofstream(broken) << "{\"name\": \"arm\", \"type\": ";
   try {
-    obsgain::load_robot(broken);
+    obsgain::load_robot({broken});
     FAIL();
   } catch (const obsgain::InputError& e) {
     EXPECT_NE(std::string(e.what()).find("not valid JSON"), std::string::npos) << e.what();

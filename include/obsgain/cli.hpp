@@ -15,6 +15,7 @@ namespace obsgain {
 // Raw text of the design options, parsed by to_design_options so that every error names the bad value.
 struct DesignArguments {
   std::string robot = "pendubot";
+  std::string base_link, tip_link, actuated;
   std::string vmax, gamma, theta, alpha, beta, L, rate_margin;
   std::string lipschitz = "joint";
   std::string certificate = "tight";
@@ -25,6 +26,7 @@ struct DesignArguments {
 void add_design_options(CLI::App& app, DesignArguments& arguments);
 
 DesignOptions to_design_options(const DesignArguments& arguments);
+RobotSource to_robot_source(const DesignArguments& arguments);
 
 struct MonteCarloArguments {
   std::string design_file;

@@ -57,6 +57,7 @@ struct ShapeReport {
 
 struct Design {
   std::string robot_name;
+  RobotSource robot_source;
   int dof = 0;
   Eigen::VectorXd velocity_bounds;
   BoundReport bounds;

@@ -48,8 +48,17 @@ class Dynamics {
   virtual std::vector<int> configuration_joints() const;
 };
 
+// Where a model came from, enough to load it again: design files record it so that monte-carlo --design
+// simulates the robot that was designed for.
+struct RobotSource {
+  std::string robot = "pendubot";  // a built-in name, or the path of a model file (*.json) or URDF (*.urdf)
+  std::string base_link, tip_link;  // URDF only: the chain (defaults: the root, the single leaf)
+  std::vector<int> actuated;        // URDF only: 0/1 per joint (default: all actuated)
+};
+
 struct Model {
   std::string name;
+  RobotSource source;
   std::shared_ptr<const Dynamics> dynamics;
   std::vector<JointDomain> joints;
   Eigen::MatrixXd friction;         // F, n x n (viscous)

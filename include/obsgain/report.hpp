@@ -51,7 +51,7 @@ WrittenReport write_verification_report(const VerificationReport& report, const 
 
 // What monte-carlo needs from design-gains' JSON: the robot, the velocity box and the certificate.
 struct SavedDesign {
-  std::string robot;
+  RobotSource robot;
   Eigen::VectorXd velocity_bounds;
   ObserverCertificate certificate;
 };

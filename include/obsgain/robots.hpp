@@ -10,7 +10,9 @@ namespace obsgain {
 
 std::vector<std::string> builtin_robots();
 
-// "pendubot", or a path to a JSON model file (model_file.hpp). Throws InputError naming the robot when it cannot be loaded.
-Model load_robot(const std::string& name_or_file);
+// "pendubot", or the path of a JSON model file (model_file.hpp) or a URDF (urdf_model.hpp). The model
+// records its source with file paths made absolute. Throws InputError naming the robot when it cannot be
+// loaded, or when URDF-only options are given for another robot.
+Model load_robot(const RobotSource& source);
 
 }  // namespace obsgain
