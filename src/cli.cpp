@@ -99,7 +99,7 @@ void add_monte_carlo_options(CLI::App& app, MonteCarloArguments& a) {
   app.add_option("--threads", a.threads, "worker threads (0: all cores)")->capture_default_str();
   app.add_option("--rtol", a.rtol, "integrator relative tolerance")->capture_default_str();
   app.add_option("--atol", a.atol, "integrator absolute tolerance")->capture_default_str();
-  app.add_option("--scenario", a.scenario, "paper (lower equilibrium, u = 1.5 sin 100t) or random")
+  app.add_option("--scenario", a.scenario, "paper (lower equilibrium, u = 1.5 sin 100t) or random (computed-torque tracking when fully actuated)")
       ->check(CLI::IsMember({"paper", "random"}))
       ->capture_default_str();
   app.add_option("--initial-errors", a.initial_errors, "practical (the paper's Remark), global, or both")

@@ -35,6 +35,18 @@ void Dynamics::coriolis_tensors(const Eigen::Ref<const Eigen::VectorXd>& q, std:
   }
 }
 
+void Dynamics::coriolis_bilinear(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Ref<const Eigen::VectorXd>& x,
+                                 const Eigen::Ref<const Eigen::VectorXd>& y, Eigen::Ref<Eigen::VectorXd> out) const {
+  // Per-thread scratch: sized once, so that the simulation's inner loop does not allocate.
+  thread_local Eigen::VectorXd argument, difference;
+  argument = x + y;
+  coriolis(q, argument, out);
+  argument = x - y;
+  difference.resize(out.size());
+  coriolis(q, argument, difference);
+  out = 0.25 * (out - difference);
+}
+
 std::vector<int> Dynamics::configuration_joints() const {
   std::vector<int> joints(dof());
   std::iota(joints.begin(), joints.end(), 0);

@@ -29,6 +29,40 @@ Eigen::VectorXd uniform_box(std::mt19937_64& rng, const Eigen::VectorXd& half_wi
   return x;
 }
 
+// H square and invertible: every joint can be driven, so a computed-torque law can track any reference.
+bool fully_actuated(const Model& model) {
+  const Eigen::MatrixXd& H = model.input_matrix;
+  return H.rows() == H.cols() && Eigen::FullPivLU<Eigen::MatrixXd>(H).rank() == H.rows();
+}
+
+// Three sinusoids per joint, 0.5 to 4 rad/s, with Σ_j a_ij ω_ij = 0.6 V_i scale: the reference's speed stays
+// inside the box, and its range inside the joint's limits.
+TrackingReference random_reference(std::mt19937_64& rng, const Model& model, const Eigen::VectorXd& V, double scale) {
+  const int n = model.dof(), terms = 3;
+  TrackingReference r;
+  r.centre.resize(n);
+  r.amplitude.resize(n, terms);
+  r.frequency.resize(n, terms);
+  r.phase.resize(n, terms);
+  for (int i = 0; i < n; ++i) {
+    Eigen::Array3d weight, frequency;
+    for (int j = 0; j < terms; ++j) {
+      weight(j) = uniform(rng, 0.1, 1.0);
+      frequency(j) = uniform(rng, 0.5, 4.0);
+      r.phase(i, j) = uniform(rng, 0.0, 2.0 * std::numbers::pi);
+    }
+    Eigen::Array3d amplitude = 0.6 * V(i) * scale * weight / (weight.sum() * frequency);
+    const JointDomain& joint = model.joints[i];
+    const double room = joint.continuous ? std::numbers::pi : 0.4 * (joint.upper - joint.lower);
+    if (amplitude.sum() > room) amplitude *= room / amplitude.sum();
+    r.amplitude.row(i) = amplitude.matrix().transpose();
+    r.frequency.row(i) = frequency.matrix().transpose();
+    r.centre(i) = joint.continuous ? uniform(rng, -std::numbers::pi, std::numbers::pi)
+                                   : uniform(rng, joint.lower + amplitude.sum(), joint.upper - amplitude.sum());
+  }
+  return r;
+}
+
 }  // namespace
 
 ObserverCertificate observer_certificate(const Design& design) {
@@ -56,6 +90,13 @@ TrialSetup make_trial(const Model& model, const Eigen::VectorXd& V, const MonteC
     setup.input.amplitude(0, 0) = 1.5 * input_scale;
     setup.input.frequency = Eigen::MatrixXd::Constant(m, 1, 100.0);
     setup.input.phase = Eigen::MatrixXd::Zero(m, 1);
+  } else if (fully_actuated(model)) {
+    // Computed-torque tracking of a random smooth reference, started on it.
+    setup.input.reference = random_reference(rng, model, V, input_scale);
+    setup.initial.q.resize(n);
+    setup.initial.v.resize(n);
+    Eigen::VectorXd acceleration(n);
+    setup.input.reference.evaluate(0.0, setup.initial.q, setup.initial.v, acceleration);
   } else {
     // Around the hanging configuration, so that gravity alone does not swing the arm out of the box;
     // the perturbation shrinks with the input on each retry.

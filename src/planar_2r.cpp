@@ -25,6 +25,15 @@ void Planar2RDynamics::coriolis_tensors(const Eigen::Ref<const Eigen::VectorXd>&
   N[1] = tensors[1];
 }
 
+// From the analytic tensors: exact however small x is (no cancellation, unlike polarisation).
+void Planar2RDynamics::coriolis_bilinear(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Ref<const Eigen::VectorXd>& x,
+                                         const Eigen::Ref<const Eigen::VectorXd>& y, Eigen::Ref<Eigen::VectorXd> out) const {
+  const auto tensors = planar_2r_coriolis_tensors(parameters_, q(1));
+  const Eigen::Vector2d x2 = x, y2 = y;
+  out(0) = x2.dot(tensors[0] * y2);
+  out(1) = x2.dot(tensors[1] * y2);
+}
+
 IntervalMatrix Planar2RDynamics::mass_matrix(const IntervalVector& q) const {
   return planar_2r_mass_matrix(parameters_, q[1]);
 }

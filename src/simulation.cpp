@@ -15,6 +15,21 @@ void InputSignal::evaluate(double t, Eigen::Ref<Eigen::VectorXd> u) const {
   }
 }
 
+void TrackingReference::evaluate(double t, Eigen::Ref<Eigen::VectorXd> q, Eigen::Ref<Eigen::VectorXd> v,
+                                 Eigen::Ref<Eigen::VectorXd> a) const {
+  for (Eigen::Index i = 0; i < centre.size(); ++i) {
+    q(i) = centre(i);
+    v(i) = 0.0;
+    a(i) = 0.0;
+    for (Eigen::Index j = 0; j < amplitude.cols(); ++j) {
+      const double w = frequency(i, j), angle = w * t + phase(i, j);
+      q(i) += amplitude(i, j) * std::sin(angle);
+      v(i) += amplitude(i, j) * w * std::cos(angle);
+      a(i) -= amplitude(i, j) * w * w * std::sin(angle);
+    }
+  }
+}
+
 namespace {
 
 using State = std::vector<double>;
@@ -32,8 +47,8 @@ class ErrorSystem {
  public:
   ErrorSystem(const Model& model, const ObserverCertificate& c, const Eigen::VectorXd& V, const InputSignal& input)
       : model_(model), c_(c), V_(V), input_(input), n_(model.dof()), M_(n_, n_), llt_(n_), F_(model.friction),
-        H_(model.input_matrix), N_(n_, Eigen::MatrixXd::Zero(n_, n_)), u_(model.input_matrix.cols()), rhs_(n_),
-        a_(n_), g_(n_), delta_(n_), sum_(n_), dA_(n_), product_(n_) {}
+        H_(model.input_matrix), u_(model.input_matrix.cols()), rhs_(n_), a_(n_), g_(n_), delta_(n_), sum_(n_), dA_(n_),
+        q_r_(n_), v_r_(n_), a_r_(n_) {}
 
   void operator()(const State& x, State& dxdt, double t) {
     const int n = n_;
@@ -45,9 +60,17 @@ class ErrorSystem {
     llt_.compute(M_);
     model_.dynamics->coriolis(q, v, a_);
     model_.dynamics->gravity(q, g_);
-    input_.evaluate(t, u_);
-    rhs_.noalias() = H_ * u_;
-    rhs_ -= a_ + g_;
+    if (input_.reference.active()) {
+      input_.reference.evaluate(t, q_r_, v_r_, a_r_);
+      a_r_ += input_.reference.damping * (v_r_ - v) + input_.reference.stiffness * (q_r_ - q);
+      rhs_.noalias() = M_ * a_r_;  // the computed torque H u ...
+      rhs_ += a_ + g_;
+      rhs_.noalias() += F_ * v;
+    } else {
+      input_.evaluate(t, u_);
+      rhs_.noalias() = H_ * u_;
+    }
+    rhs_ -= a_ + g_;  // ... applied to the plant
     rhs_.noalias() -= F_ * v;
     llt_.solveInPlace(rhs_);
     dq = v;
@@ -72,11 +95,7 @@ class ErrorSystem {
       }
       sum_(i) = w + y;
     }
-    model_.dynamics->coriolis_tensors(q, N_);
-    for (int i = 0; i < n; ++i) {
-      product_.noalias() = Eigen::Map<const Matrix>(N_[i].data(), n, n) * sum_;
-      dA_(i) = delta_.dot(product_);
-    }
+    model_.dynamics->coriolis_bilinear(q, delta_, sum_, dA_);
     dA_.noalias() += F_ * uv;
     llt_.solveInPlace(dA_);
     duq = -c_.k1 * uq + uv;
@@ -98,9 +117,8 @@ class ErrorSystem {
   Eigen::LLT<Matrix> llt_;
   Matrix F_;
   Eigen::Matrix<double, Dim, Eigen::Dynamic> H_;
-  std::vector<Eigen::MatrixXd> N_;
   Eigen::VectorXd u_;
-  Vector rhs_, a_, g_, delta_, sum_, dA_, product_;
+  Vector rhs_, a_, g_, delta_, sum_, dA_, q_r_, v_r_, a_r_;
 };
 
 // The per-point checks, in log space: log ||e|| = ρ + log ||u||.

@@ -43,6 +43,10 @@ class Dynamics {
   // N_i(q) (symmetric) with A_i(q, v) = vᵀ N_i(q) v. The default recovers them exactly from coriolis() by
   // polarisation (design notes §3), which is all a black-box model such as KDL offers.
   virtual void coriolis_tensors(const Eigen::Ref<const Eigen::VectorXd>& q, std::vector<Eigen::MatrixXd>& N) const;
+  // out_i = xᵀ N_i(q) y, the symmetric bilinear form of A, which the simulation's error equation needs at
+  // every step. The default polarises coriolis(): (A(x + y) - A(x - y)) / 4, two evaluations for any n.
+  virtual void coriolis_bilinear(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Ref<const Eigen::VectorXd>& x,
+                                 const Eigen::Ref<const Eigen::VectorXd>& y, Eigen::Ref<Eigen::VectorXd> out) const;
   // Joints whose positions M and C depend on; the bound search runs over these only. A serial chain's
   // M and C do not depend on its first joint.
   virtual std::vector<int> configuration_joints() const;

@@ -17,7 +17,7 @@ struct MonteCarloOptions {
   int trials = 1000;
   std::uint64_t seed = 1;
   int threads = 0;  // 0: all cores
-  Scenario scenario = Scenario::random;
+  Scenario scenario = Scenario::random;  // fully actuated arms: computed-torque tracking; else open-loop inputs
   InitialErrors initial_errors = InitialErrors::both;
   SimulationOptions simulation;
   double practical_position_error = 0.05;  // ||q̂(0) - q(0)|| bound of the practical set [rad]

@@ -57,6 +57,8 @@ class Planar2RDynamics final : public Dynamics, public IntervalDynamics {
                 Eigen::Ref<Eigen::VectorXd> A) const override;
   void gravity(const Eigen::Ref<const Eigen::VectorXd>& q, Eigen::Ref<Eigen::VectorXd> g) const override;
   void coriolis_tensors(const Eigen::Ref<const Eigen::VectorXd>& q, std::vector<Eigen::MatrixXd>& N) const override;
+  void coriolis_bilinear(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Ref<const Eigen::VectorXd>& x,
+                         const Eigen::Ref<const Eigen::VectorXd>& y, Eigen::Ref<Eigen::VectorXd> out) const override;
   std::vector<int> configuration_joints() const override { return {1}; }
   // The same templates on intervals, for certified bounds.
   IntervalMatrix mass_matrix(const IntervalVector& q) const override;

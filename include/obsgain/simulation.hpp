@@ -21,9 +21,22 @@ struct ObserverCertificate {
   Eigen::Matrix2d P = Eigen::Matrix2d::Zero(); // V(e) = eᵀ (P ⊗ I) e, V(t) <= V(0) e^{-2γt}
 };
 
-// u(t)_c = Σ_j amplitude(c, j) sin(frequency(c, j) t + phase(c, j)), one row per input channel.
+// A smooth reference q_r(t)_i = centre_i + Σ_j amplitude(i, j) sin(frequency(i, j) t + phase(i, j)).
+struct TrackingReference {
+  Eigen::VectorXd centre;
+  Eigen::MatrixXd amplitude, frequency, phase;
+  double stiffness = 400.0, damping = 40.0;  // Kp = stiffness I, Kd = damping I (critically damped, 20 rad/s)
+  bool active() const { return centre.size() > 0; }
+  void evaluate(double t, Eigen::Ref<Eigen::VectorXd> q, Eigen::Ref<Eigen::VectorXd> v, Eigen::Ref<Eigen::VectorXd> a) const;
+};
+
+// What drives the plant. Open loop: u(t)_c = Σ_j amplitude(c, j) sin(frequency(c, j) t + phase(c, j)), one row
+// per input channel. With an active reference (fully actuated arms, H invertible): the computed-torque law
+// H u = M(q) (a_r + Kd (v_r - v) + Kp (q_r - q)) + A(q, v) + F v + g(q), evaluated on the model each step.
+// Either way the observer error does not depend on u, which the observer knows.
 struct InputSignal {
   Eigen::MatrixXd amplitude, frequency, phase;
+  TrackingReference reference;
   void evaluate(double t, Eigen::Ref<Eigen::VectorXd> u) const;
 };
 
