@@ -91,6 +91,30 @@ class KdlDynamics final : public Dynamics {
   std::uint64_t id_ = next_id();
 };
 
+// urdfdom reports why it rejects a file through console_bridge; keep its first error for our one-line message
+// instead of letting it print.
+class FirstError final : public console_bridge::OutputHandler {
+ public:
+  FirstError() {
+    previous_level_ = console_bridge::getLogLevel();
+    console_bridge::setLogLevel(console_bridge::CONSOLE_BRIDGE_LOG_ERROR);
+    console_bridge::useOutputHandler(this);
+  }
+  ~FirstError() override {
+    console_bridge::restorePreviousOutputHandler();
+    console_bridge::setLogLevel(previous_level_);
+  }
+  FirstError(const FirstError&) = delete;
+  FirstError& operator=(const FirstError&) = delete;
+  void log(const std::string& text, console_bridge::LogLevel level, const char*, int) override {
+    if (level >= console_bridge::CONSOLE_BRIDGE_LOG_ERROR && message.empty()) message = text;
+  }
+  std::string message;
+
+ private:
+  console_bridge::LogLevel previous_level_;
+};
+
 std::string read_file(const std::string& path) {
   std::ifstream file(path);
   if (!file) throw InputError(fmt::format("cannot read URDF file '{}'", path));
@@ -173,9 +197,12 @@ Model load_urdf(const RobotSource& options) {
   if (document.Parse(xml.c_str(), xml.size()) != tinyxml2::XML_SUCCESS)
     throw InputError(fmt::format("{}: broken XML at line {}: {}", source, document.ErrorLineNum(), document.ErrorName()));
 
-  console_bridge::setLogLevel(console_bridge::CONSOLE_BRIDGE_LOG_NONE);  // errors are ours to report
-  const urdf::ModelInterfaceSharedPtr robot = urdf::parseURDF(xml);
-  if (!robot) throw InputError(fmt::format("{}: not a valid URDF (urdfdom rejected it)", source));
+  urdf::ModelInterfaceSharedPtr robot;
+  {
+    FirstError error;
+    robot = urdf::parseURDF(xml);
+    if (!robot) throw InputError(fmt::format("{}: not a valid URDF: {}", source, error.message));
+  }
   KDL::Tree tree;
   if (!kdl_parser::treeFromUrdfModel(*robot, tree)) throw InputError(fmt::format("{}: kdl_parser rejected it", source));
 

@@ -44,6 +44,18 @@ void expect_refused(const std::string& arguments, const std::string& names, cons
   EXPECT_NE(r.err.find(names), std::string::npos) << "'" << r.err << "' should name " << names;
 }
 
+nlohmann::json read_json(const std::string& path) {
+  std::ifstream file(path);
+  return nlohmann::json::parse(file);
+}
+
+std::string read_text(const std::string& path) {
+  std::ifstream file(path);
+  std::stringstream text;
+  text << file.rdbuf();
+  return text.str();
+}
+
 TEST(DesignGainsApp, RefusesBadInputWithOneLineAndExit2) {
   expect_refused("--gamma -1", "gamma = -1");
   expect_refused("--gamma 0", "gamma = 0");
@@ -113,6 +125,37 @@ TEST(MonteCarloApp, ValidatesASavedDesign) {
   EXPECT_EQ(header, "t,q1,q2,v1,v2,qhat1,qhat2,vhat1,vhat2,error_norm,envelope");
 }
 
+TEST(Urdf, DesignAndValidateAThreeJointArm) {
+  const std::string examples = OBSGAIN_EXAMPLES_DIR;
+  const std::string design = ::testing::TempDir() + "/obsgain_arm3_design.json";
+  const AppRun d = run("design-gains", "--robot " + examples + "/arm3.urdf --gamma 5 --bounds numeric --json " + design);
+  ASSERT_EQ(d.exit_code, 0) << d.err;
+  const nlohmann::json j = read_json(design);
+  EXPECT_EQ(j["robot"]["name"], "arm3");
+  EXPECT_EQ(j["robot"]["dof"], 3);
+  EXPECT_TRUE(j["robot"]["source"].get<std::string>().ends_with("/examples/arm3.urdf"));
+  EXPECT_TRUE(j["design"]["certified"].get<bool>());
+  // monte-carlo reloads the URDF named in the design: computed-torque tracking, three joints.
+  const AppRun r = run("monte-carlo", "--design " + design + " --trials 4 --horizon 0.3 --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json report = nlohmann::json::parse(r.out);
+  EXPECT_EQ(report["passed"], 4);
+  EXPECT_DOUBLE_EQ(report["certified_gamma"].get<double>(), 5.0);
+}
+
+TEST(Urdf, MalformedRobotsExitTwoWithOneLine) {
+  const std::string examples = OBSGAIN_EXAMPLES_DIR;
+  const std::string broken = ::testing::TempDir() + "/obsgain_broken.urdf";
+  std::ofstream(broken) << "<robot name='r'>\n<link name='a'>\n</robot>\n";
+  expect_refused("--robot /nonexistent/arm.urdf --gamma 1", "cannot read URDF file '/nonexistent/arm.urdf'");
+  expect_refused("--robot " + broken + " --gamma 1", "broken XML at line 2");
+  expect_refused("--robot " + examples + "/arm3.urdf --tip-link gripper --gamma 1", "there is no link 'gripper'");
+  expect_refused("--robot " + examples + "/arm3.urdf --base-link forearm --tip-link turret --gamma 1",
+                 "no chain from 'forearm' down to 'turret'");
+  expect_refused("--robot " + examples + "/pendubot.urdf --actuated 1,0,1 --gamma 1", "2 joints, got 3 flags");
+  expect_refused("--robot pendubot --actuated 1,0 --gamma 1", "apply to URDF robots only");
+}
+
 TEST(MonteCarloApp, ExitOneWhenTheCertificateIsViolated) {
   const AppRun r = run("monte-carlo", "--gamma 1 --L 0.01 --bounds numeric --trials 20 --horizon 3 --initial-errors practical");
   EXPECT_EQ(r.exit_code, 1) << r.out << r.err;
@@ -128,18 +171,6 @@ TEST(MonteCarloApp, RefusesBadInput) {
   expect_refused("--theta 200 --scenario moon", "scenario", "monte-carlo");
   expect_refused("--design /nonexistent/design.json", "/nonexistent/design.json", "monte-carlo");
   expect_refused("--theta 100 --certificate paper --bounds numeric", "certifies no exponential rate", "monte-carlo");
-}
-
-nlohmann::json read_json(const std::string& path) {
-  std::ifstream file(path);
-  return nlohmann::json::parse(file);
-}
-
-std::string read_text(const std::string& path) {
-  std::ifstream file(path);
-  std::stringstream text;
-  text << file.rdbuf();
-  return text.str();
 }
 
 TEST(VerifyBoundsApp, WritesTheReportWithCertifiedBrackets) {

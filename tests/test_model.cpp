@@ -39,6 +39,23 @@ TEST(Model, PolarisationRecoversThePendubotCoriolisTensors) {
   }
 }
 
+TEST(Model, PolarisedBilinearFormEqualsTheAnalyticOne) {
+  const obsgain::Model model = obsgain::pendubot();
+  const auto& analytic = dynamic_cast<const obsgain::Planar2RDynamics&>(*model.dynamics);
+  const BlackBoxCoriolis black_box(analytic);
+  const Eigen::Vector2d q(0.4, 1.1);
+  for (const auto& [x, y] : {std::pair{Eigen::Vector2d(1.0, -2.0), Eigen::Vector2d(10.0, 3.0)},
+                             std::pair{Eigen::Vector2d(1e-3, 0.5), Eigen::Vector2d(-10.0, 10.0)}}) {
+    Eigen::VectorXd expected(2), polarised(2);
+    analytic.coriolis_bilinear(q, x, y, expected);
+    black_box.coriolis_bilinear(q, x, y, polarised);
+    // Polarisation subtracts terms of size π3 (|x| + |y|)²: its error is rounding at that scale.
+    const double scale = 0.0095 * std::pow(x.norm() + y.norm(), 2);
+    EXPECT_LE((expected - polarised).norm(), 1e-14 * scale) << x.transpose();
+    EXPECT_GT(expected.norm(), 1e-4);
+  }
+}
+
 TEST(Model, CoriolisTensorsReproduceCTimesV) {
   const obsgain::Model model = obsgain::pendubot();
   const Eigen::Vector2d q(0.1, 0.9), v(3.0, -7.0);
