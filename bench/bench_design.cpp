@@ -1,9 +1,12 @@
 // design-gains on the Pendubot end to end (bounds, Lyapunov, both certificates), as the app runs it, with
 // numeric bounds (target: median under 0.2 s) and with certified bounds; and verify-bounds' computation
-// (certified bounds, 200 Monte Carlo trials, plot data; target under 60 s on 2 cores).
+// (certified bounds, 200 Monte Carlo trials, plot data; target under 60 s on 2 cores); and design-gains on
+// the 6-joint URDF arm of examples/ (5-dimensional bound search, 64 x 64 vertex/pattern choices for L_joint;
+// target under 30 s on 2 cores).
 // Run: build/bench/bench_design --benchmark_repetitions=5
 #include "obsgain/design.hpp"
 #include "obsgain/planar_2r.hpp"
+#include "obsgain/robots.hpp"
 #include "obsgain/verification.hpp"
 
 #include <benchmark/benchmark.h>
@@ -26,6 +29,14 @@ void VerifyPendubot(benchmark::State& state) {
   for (auto _ : state) benchmark::DoNotOptimize(obsgain::verify_design(model, options));
 }
 
+// As `design-gains --robot examples/arm6.urdf --gamma 5` runs it (certified bounds requested, numeric used).
+void DesignGainsSixJointArm(benchmark::State& state) {
+  const obsgain::Model model = obsgain::load_robot({std::string(OBSGAIN_EXAMPLES_DIR) + "/arm6.urdf"});
+  obsgain::DesignOptions options;
+  options.gamma = 5.0;
+  for (auto _ : state) benchmark::DoNotOptimize(obsgain::design_gains(model, options));
+}
+
 using obsgain::BoundMethod;
 BENCHMARK_CAPTURE(DesignGainsPendubot, numeric, false, BoundMethod::numeric)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK_CAPTURE(DesignGainsPendubot, numeric_optimize_shape, true, BoundMethod::numeric)
@@ -36,6 +47,7 @@ BENCHMARK_CAPTURE(DesignGainsPendubot, certified, false, BoundMethod::certified)
     ->UseRealTime()
     ->Iterations(1);
 BENCHMARK(VerifyPendubot)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1);
+BENCHMARK(DesignGainsSixJointArm)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1);
 
 }  // namespace
 
