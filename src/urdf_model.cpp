@@ -12,7 +12,6 @@
 #include <atomic>
 #include <fstream>
 #include <memory>
-#include <numbers>
 #include <sstream>
 #include <unordered_map>
 
@@ -203,6 +202,9 @@ Model load_urdf(const RobotSource& options) {
     robot = urdf::parseURDF(xml);
     if (!robot) throw InputError(fmt::format("{}: not a valid URDF: {}", source, error.message));
   }
+  // The root link is the fixed world: its inertia enters no dynamics, and kdl_parser would warn about it
+  // through ROS logging.
+  if (robot->root_link_) robot->root_link_->inertial.reset();
   KDL::Tree tree;
   if (!kdl_parser::treeFromUrdfModel(*robot, tree)) throw InputError(fmt::format("{}: kdl_parser rejected it", source));
 
