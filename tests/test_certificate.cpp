@@ -74,6 +74,20 @@ TEST(TightCertificate, RiccatiCertificateExistsJustBelowTheSupremumOnly) {
 }
 
 // The tight certificate is the best quadratic one, so it never needs a larger θ than the paper's.
+// Large gains (a six-joint arm's L ≈ 600 needs θ ≈ 900, k2 ≈ 8e5): the Hamiltonian spans k2² : 1 unless
+// balanced, and the LMI check then fails for a certificate that exists.
+TEST(TightCertificate, LargeGainsStillCertify) {
+  for (const double L : {598.7153109, 5987.153109}) {
+    const double gamma = 5.0;
+    const double theta = obsgain::tight_theta_star(1.0, 1.0, gamma / 0.99, L);
+    const obsgain::RiccatiCertificate c = obsgain::tight_certificate(theta, theta * theta, L, gamma);
+    EXPECT_TRUE(c.exists) << "L = " << L;
+    EXPECT_LT(c.riccati_residual, 1e-12) << "L = " << L;
+    EXPECT_LT(c.lmi_max_eig, 0.0) << "L = " << L;
+    EXPECT_GT(c.k, 1.0) << "L = " << L;
+  }
+}
+
 TEST(TightCertificate, NeverWorseThanThePaper) {
   std::mt19937_64 rng(11);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
