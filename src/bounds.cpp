@@ -161,7 +161,7 @@ Eigen::VectorXd pattern(int n, unsigned c) {
 
 // Tracks max λ_max(G) over a family of Gram matrices G = XᵀX without an eigensolver for most of them:
 // λ_max(G) <= ||G||_F, and λ_max(G) <= b² exactly when b² I - G is positive semidefinite (a Cholesky test).
-// Only a G that beats the running maximum is solved, so the result is the exact maximum.
+// Only a G that beats the running maximum is solved, so the result is the maximum to rounding.
 class LargestSingularValue {
  public:
   explicit LargestSingularValue(int n) : shifted_(n, n), llt_(n) {}
