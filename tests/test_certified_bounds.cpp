@@ -9,22 +9,17 @@
 
 namespace {
 
-class PendubotBrackets : public ::testing::Test {
- protected:
-  static void SetUpTestSuite() {
-    model_ = new obsgain::Model(obsgain::pendubot());
-    certified_ = new obsgain::CertifiedBounds(
-        *obsgain::certify_bounds(*model_, obsgain::compute_bounds(*model_, Eigen::Vector2d(10, 10))));
-  }
-  static void TearDownTestSuite() {
-    delete certified_;
-    delete model_;
-  }
-  static obsgain::Model* model_;
-  static obsgain::CertifiedBounds* certified_;
-};
-obsgain::Model* PendubotBrackets::model_ = nullptr;
-obsgain::CertifiedBounds* PendubotBrackets::certified_ = nullptr;
+const obsgain::Model& pendubot_model() {
+  static const obsgain::Model model = obsgain::pendubot();
+  return model;
+}
+
+// Computed once per test process (about two seconds of branch and bound).
+const obsgain::CertifiedBounds& pendubot_brackets() {
+  static const obsgain::CertifiedBounds brackets =
+      *obsgain::certify_bounds(pendubot_model(), obsgain::compute_bounds(pendubot_model(), Eigen::Vector2d(10, 10)));
+  return brackets;
+}
 
 void expect_brackets(const obsgain::Bracket& b, double reference) {
   // The design notes' values are rounded to 7 digits: the bracket contains them to that rounding.
@@ -35,30 +30,30 @@ void expect_brackets(const obsgain::Bracket& b, double reference) {
   EXPECT_GT(b.boxes, 1);
 }
 
-TEST_F(PendubotBrackets, ContainTheDesignNotesValuesWithGap1e6) {
-  expect_brackets(certified_->M0, 285.7398);
-  expect_brackets(certified_->B, 0.4347667);
-  expect_brackets(certified_->L_joint, 43.3475);
+TEST(PendubotBrackets, ContainTheDesignNotesValuesWithGap1e6) {
+  expect_brackets(pendubot_brackets().M0, 285.7398);
+  expect_brackets(pendubot_brackets().B, 0.4347667);
+  expect_brackets(pendubot_brackets().L_joint, 43.3475);
   // Closed forms: M0 = 1/λmin(M(q2 = 0)), B = 2 π3 · 10 · sqrt(3 + √5).
   const Eigen::Matrix2d M = obsgain::planar_2r_mass_matrix<double>({{0.0308, 0.0106, 0.0095, 0.2086, 0.0630}}, 0.0);
   const double M0 = 1.0 / Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(M).eigenvalues()(0);
-  EXPECT_LE(certified_->M0.lower, M0 * (1 + 1e-14));
-  EXPECT_GE(certified_->M0.upper, M0);
+  EXPECT_LE(pendubot_brackets().M0.lower, M0 * (1 + 1e-14));
+  EXPECT_GE(pendubot_brackets().M0.upper, M0);
   const double B = 2.0 * 0.0095 * 10.0 * std::sqrt(3.0 + std::sqrt(5.0));
-  EXPECT_LE(certified_->B.lower, B * (1 + 1e-14));
-  EXPECT_GE(certified_->B.upper, B);
+  EXPECT_LE(pendubot_brackets().B.lower, B * (1 + 1e-14));
+  EXPECT_GE(pendubot_brackets().B.upper, B);
 }
 
 // Dense random sampling of q, of v anywhere in the box (not only vertices) and of D in [0, 1]ⁿ never
 // exceeds a certified upper bound.
-TEST_F(PendubotBrackets, RandomSamplingNeverExceedsTheUpperBounds) {
+TEST(PendubotBrackets, RandomSamplingNeverExceedsTheUpperBounds) {
   std::mt19937_64 rng(5);
   std::uniform_real_distribution<double> angle(-std::numbers::pi, std::numbers::pi), unit(0.0, 1.0), box(-10.0, 10.0);
   for (int i = 0; i < 50000; ++i) {
     const Eigen::Vector2d q(angle(rng), angle(rng)), v(box(rng), box(rng)), D(unit(rng), unit(rng));
-    EXPECT_LE(obsgain::inverse_inertia_norm(*model_, q), certified_->M0.upper);
-    EXPECT_LE(obsgain::coriolis_jacobian_norm(*model_, q, v), certified_->B.upper);
-    EXPECT_LE(obsgain::joint_lipschitz_norm(*model_, q, v, D), certified_->L_joint.upper);
+    EXPECT_LE(obsgain::inverse_inertia_norm(pendubot_model(), q), pendubot_brackets().M0.upper);
+    EXPECT_LE(obsgain::coriolis_jacobian_norm(pendubot_model(), q, v), pendubot_brackets().B.upper);
+    EXPECT_LE(obsgain::joint_lipschitz_norm(pendubot_model(), q, v, D), pendubot_brackets().L_joint.upper);
   }
 }
 
