@@ -222,7 +222,6 @@ Model load_urdf(const RobotSource& options) {
 
   Model model;
   model.name = robot->getName();
-  model.source = options;
   model.friction = Eigen::MatrixXd::Zero(n, n);
   model.velocity_bounds.resize(n);
   std::vector<std::string> joint_names;
