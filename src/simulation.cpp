@@ -58,23 +58,22 @@ class ErrorSystem {
 
     model_.dynamics->mass_matrix(q, M_);
     llt_.compute(M_);
-    model_.dynamics->coriolis(q, v, a_);
-    model_.dynamics->gravity(q, g_);
+    dq = v;
     if (input_.reference.active()) {
+      // The computed torque is built from this same model, H u = M a_c + A + F v + g, so the plant's
+      // M q'' = H u - A - F v - g is q'' = a_c exactly: no need to form the torque only to cancel it.
       input_.reference.evaluate(t, q_r_, v_r_, a_r_);
-      a_r_ += input_.reference.damping * (v_r_ - v) + input_.reference.stiffness * (q_r_ - q);
-      rhs_.noalias() = M_ * a_r_;  // the computed torque H u ...
-      rhs_ += a_ + g_;
-      rhs_.noalias() += F_ * v;
+      dv = a_r_ + input_.reference.damping * (v_r_ - v) + input_.reference.stiffness * (q_r_ - q);
     } else {
+      model_.dynamics->coriolis(q, v, a_);
+      model_.dynamics->gravity(q, g_);
       input_.evaluate(t, u_);
       rhs_.noalias() = H_ * u_;
+      rhs_ -= a_ + g_;
+      rhs_.noalias() -= F_ * v;
+      llt_.solveInPlace(rhs_);
+      dv = rhs_;
     }
-    rhs_ -= a_ + g_;  // ... applied to the plant
-    rhs_.noalias() -= F_ * v;
-    llt_.solveInPlace(rhs_);
-    dq = v;
-    dv = rhs_;
 
     // The error equation uses A(q, σ(v + e_v)) - A(q, σ(v)): the plant's A(q, v) while |v| <= V (the paper's
     // reduction); a trial whose plant leaves the box is stopped and reported as an assumption violation.

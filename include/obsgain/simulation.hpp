@@ -32,7 +32,8 @@ struct TrackingReference {
 
 // What drives the plant. Open loop: u(t)_c = Σ_j amplitude(c, j) sin(frequency(c, j) t + phase(c, j)), one row
 // per input channel. With an active reference (fully actuated arms, H invertible): the computed-torque law
-// H u = M(q) (a_r + Kd (v_r - v) + Kp (q_r - q)) + A(q, v) + F v + g(q), evaluated on the model each step.
+// H u = M(q) a_c + A(q, v) + F v + g(q), a_c = a_r + Kd (v_r - v) + Kp (q_r - q), built from the model itself,
+// so that the plant moves with q'' = a_c.
 // Either way the observer error does not depend on u, which the observer knows.
 struct InputSignal {
   Eigen::MatrixXd amplitude, frequency, phase;
