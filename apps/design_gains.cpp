@@ -26,9 +26,8 @@ int main(int argc, char** argv) {
         if (!(file << text)) throw obsgain::InputError("cannot write JSON to '" + json_path + "'");
       }
     }
-    const bool asked_for_rate = options.gamma.has_value();
-    if (asked_for_rate && !design.selected().certified) {
-      std::cerr << "design-gains: error: the design does not certify gamma = " << *options.gamma << "\n";
+    if (const std::string unmet = obsgain::unmet_request(design, options); !unmet.empty()) {
+      std::cerr << "design-gains: error: " << unmet << "\n";
       return 1;
     }
     return 0;

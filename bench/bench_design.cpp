@@ -29,11 +29,13 @@ void VerifyPendubot(benchmark::State& state) {
   for (auto _ : state) benchmark::DoNotOptimize(obsgain::verify_design(model, options));
 }
 
-// As `design-gains --robot examples/arm6.urdf --gamma 5` runs it (certified bounds requested, numeric used).
-void DesignGainsSixJointArm(benchmark::State& state) {
-  const obsgain::Model model = obsgain::load_robot({std::string(OBSGAIN_EXAMPLES_DIR) + "/arm6.urdf"});
+// An arm from its URDF: `design-gains --robot examples/armN.urdf --gamma 5 [--bounds numeric] [--bound-budget s]`.
+void DesignGainsArm(benchmark::State& state, const char* file, obsgain::BoundMethod method, double budget) {
+  const obsgain::Model model = obsgain::load_robot({std::string(OBSGAIN_EXAMPLES_DIR) + "/" + file});
   obsgain::DesignOptions options;
   options.gamma = 5.0;
+  options.bound_method = method;
+  options.certified_bounds.budget_seconds = budget;
   for (auto _ : state) benchmark::DoNotOptimize(obsgain::design_gains(model, options));
 }
 
@@ -42,12 +44,20 @@ BENCHMARK_CAPTURE(DesignGainsPendubot, numeric, false, BoundMethod::numeric)->Un
 BENCHMARK_CAPTURE(DesignGainsPendubot, numeric_optimize_shape, true, BoundMethod::numeric)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
-BENCHMARK_CAPTURE(DesignGainsPendubot, certified, false, BoundMethod::certified)
+BENCHMARK_CAPTURE(DesignGainsPendubot, certified, false, BoundMethod::certified)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(VerifyPendubot)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1);
+BENCHMARK_CAPTURE(DesignGainsArm, arm3_certified_30s, "arm3.urdf", BoundMethod::certified, 30.0)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime()
     ->Iterations(1);
-BENCHMARK(VerifyPendubot)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1);
-BENCHMARK(DesignGainsSixJointArm)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1);
+BENCHMARK_CAPTURE(DesignGainsArm, arm6_numeric, "arm6.urdf", BoundMethod::numeric, 0.0)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->Iterations(1);
+BENCHMARK_CAPTURE(DesignGainsArm, arm7_numeric, "arm7.urdf", BoundMethod::numeric, 0.0)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->Iterations(1);
 
 }  // namespace
 

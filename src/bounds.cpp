@@ -189,6 +189,59 @@ class LargestSingularValue {
   Eigen::LLT<Eigen::MatrixXd> llt_;
 };
 
+
+// J(q, -w) = -J(q, w): the vertices with w_n < 0 (bit n-1 clear) repeat the others for ||J||, and for
+// ||M⁻¹(J D + F)|| too when F = 0.
+double coriolis_jacobian_maximum(const Model& model, const Eigen::VectorXd& q, const Eigen::VectorXd& velocity_bounds,
+                                 int& choice) {
+  const int n = model.dof();
+  const unsigned vertex_count = 1u << n;
+  std::vector<Eigen::MatrixXd> N;
+  model.dynamics->coriolis_tensors(q, N);
+  LargestSingularValue largest(n);
+  Eigen::MatrixXd J(n, n), G(n, n);
+  for (unsigned c = vertex_count / 2; c < vertex_count; ++c) {
+    J = coriolis_jacobian(N, vertex(velocity_bounds, c));
+    G.noalias() = J.transpose() * J;
+    if (largest.offer(G)) choice = static_cast<int>(c);
+  }
+  return largest.value();
+}
+
+// Choices for L_joint: vertex index in the low n bits, saturation pattern in the next n bits. With
+// X = A D + R, A = M⁻¹J, R = M⁻¹F: XᵀX = D AᵀA D + D AᵀR + RᵀA D + RᵀR, so each of the 2^n patterns costs
+// O(n²) once the three Gram blocks of a vertex are formed.
+double joint_lipschitz_maximum(const Model& model, const Eigen::VectorXd& q, const Eigen::VectorXd& velocity_bounds,
+                               int& choice) {
+  const int n = model.dof();
+  const unsigned vertex_count = 1u << n;
+  const unsigned first_vertex = model.friction.isZero(0.0) ? vertex_count / 2 : 0u;
+  std::vector<Eigen::MatrixXd> N;
+  model.dynamics->coriolis_tensors(q, N);
+  const Eigen::LLT<Eigen::MatrixXd> llt = factor_inertia(model, q);
+  const Eigen::MatrixXd R = llt.solve(model.friction);
+  const Eigen::MatrixXd RR = R.transpose() * R;
+  LargestSingularValue largest(n);
+  Eigen::MatrixXd A(n, n), AA(n, n), AR(n, n), G(n, n);
+  for (unsigned c = first_vertex; c < vertex_count; ++c) {
+    A = llt.solve(coriolis_jacobian(N, vertex(velocity_bounds, c)));
+    AA.noalias() = A.transpose() * A;
+    AR.noalias() = A.transpose() * R;
+    // Full patterns first: they usually win, and a high running maximum prunes the rest.
+    for (unsigned s = vertex_count; s-- > 0;) {
+      for (int j = 0; j < n; ++j) {
+        const bool dj = (s >> j) & 1u;
+        for (int i = 0; i < n; ++i) {
+          const bool di = (s >> i) & 1u;
+          G(i, j) = RR(i, j) + (di && dj ? AA(i, j) : 0.0) + (di ? AR(i, j) : 0.0) + (dj ? AR(j, i) : 0.0);
+        }
+      }
+      if (largest.offer(G)) choice = static_cast<int>(c | (s << n));
+    }
+  }
+  return largest.value();
+}
+
 }  // namespace
 
 Eigen::MatrixXd box_vertices(const Eigen::VectorXd& velocity_bounds) {
@@ -217,15 +270,21 @@ double joint_lipschitz_norm(const Model& model, const Eigen::VectorXd& q, const 
   return factor_inertia(model, q).solve(X).operatorNorm();
 }
 
+double max_coriolis_jacobian_norm(const Model& model, const Eigen::VectorXd& q, const Eigen::VectorXd& velocity_bounds) {
+  int choice = 0;
+  return coriolis_jacobian_maximum(model, q, velocity_bounds, choice);
+}
+
+double max_joint_lipschitz_norm(const Model& model, const Eigen::VectorXd& q, const Eigen::VectorXd& velocity_bounds) {
+  int choice = 0;
+  return joint_lipschitz_maximum(model, q, velocity_bounds, choice);
+}
+
 BoundReport compute_bounds(const Model& model, const Eigen::VectorXd& velocity_bounds, const BoundOptions& options) {
   validate_velocity_bounds(model, velocity_bounds);
   const auto start = std::chrono::steady_clock::now();
   const int n = model.dof();
   const unsigned vertex_count = 1u << n;
-  // J(q, -w) = -J(q, w): the vertices with w_n < 0 (bit n-1 clear) repeat the others for ||J||, and for
-  // ||M⁻¹(J D + F)|| too when F = 0.
-  const unsigned half = vertex_count / 2;
-  const unsigned first_lipschitz_vertex = model.friction.isZero(0.0) ? half : 0u;
 
   BoundReport report;
   report.velocity_bounds = velocity_bounds;
@@ -240,18 +299,7 @@ BoundReport compute_bounds(const Model& model, const Eigen::VectorXd& velocity_b
   report.M0 = search(model, m0, options);
 
   BoundProblem b;
-  b.all_choices = [&](const Eigen::VectorXd& q, int& choice) {
-    std::vector<Eigen::MatrixXd> N;
-    model.dynamics->coriolis_tensors(q, N);
-    LargestSingularValue largest(n);
-    Eigen::MatrixXd J(n, n), G(n, n);
-    for (unsigned c = half; c < vertex_count; ++c) {
-      J = coriolis_jacobian(N, vertex(velocity_bounds, c));
-      G.noalias() = J.transpose() * J;
-      if (largest.offer(G)) choice = static_cast<int>(c);
-    }
-    return largest.value();
-  };
+  b.all_choices = [&](const Eigen::VectorXd& q, int& choice) { return coriolis_jacobian_maximum(model, q, velocity_bounds, choice); };
   b.one_choice = [&](const Eigen::VectorXd& q, int c) {
     return coriolis_jacobian_norm(model, q, vertex(velocity_bounds, static_cast<unsigned>(c)));
   };
@@ -262,36 +310,8 @@ BoundReport compute_bounds(const Model& model, const Eigen::VectorXd& velocity_b
     report.B.velocity_vertex = vertex(velocity_bounds, static_cast<unsigned>(choice));
   }
 
-  // Choices for L_joint: vertex index in the low n bits, saturation pattern in the next n bits. With
-  // X = A D + R, A = M⁻¹J, R = M⁻¹F: XᵀX = D AᵀA D + D AᵀR + RᵀA D + RᵀR, so each of the 2^n patterns costs
-  // O(n²) once the three Gram blocks of a vertex are formed.
   BoundProblem lj;
-  lj.all_choices = [&](const Eigen::VectorXd& q, int& choice) {
-    std::vector<Eigen::MatrixXd> N;
-    model.dynamics->coriolis_tensors(q, N);
-    const Eigen::LLT<Eigen::MatrixXd> llt = factor_inertia(model, q);
-    const Eigen::MatrixXd R = llt.solve(model.friction);
-    const Eigen::MatrixXd RR = R.transpose() * R;
-    LargestSingularValue largest(n);
-    Eigen::MatrixXd A(n, n), AA(n, n), AR(n, n), G(n, n);
-    for (unsigned c = first_lipschitz_vertex; c < vertex_count; ++c) {
-      A = llt.solve(coriolis_jacobian(N, vertex(velocity_bounds, c)));
-      AA.noalias() = A.transpose() * A;
-      AR.noalias() = A.transpose() * R;
-      // Full patterns first: they usually win, and a high running maximum prunes the rest.
-      for (unsigned s = vertex_count; s-- > 0;) {
-        for (int j = 0; j < n; ++j) {
-          const bool dj = (s >> j) & 1u;
-          for (int i = 0; i < n; ++i) {
-            const bool di = (s >> i) & 1u;
-            G(i, j) = RR(i, j) + (di && dj ? AA(i, j) : 0.0) + (di ? AR(i, j) : 0.0) + (dj ? AR(j, i) : 0.0);
-          }
-        }
-        if (largest.offer(G)) choice = static_cast<int>(c | (s << n));
-      }
-    }
-    return largest.value();
-  };
+  lj.all_choices = [&](const Eigen::VectorXd& q, int& choice) { return joint_lipschitz_maximum(model, q, velocity_bounds, choice); };
   lj.one_choice = [&](const Eigen::VectorXd& q, int choice) {
     const auto c = static_cast<unsigned>(choice);
     return joint_lipschitz_norm(model, q, vertex(velocity_bounds, c & (vertex_count - 1)), pattern(n, c >> n));

@@ -3,6 +3,7 @@
 #include "obsgain/model.hpp"
 
 #include <Eigen/Eigenvalues>
+#include <fmt/format.h>
 #include <nlopt.hpp>
 
 #include <cmath>
@@ -42,11 +43,15 @@ double shifted_transfer_peak(double k1, double k2, double gamma) {
 }
 
 double tight_rate(double k1, double k2, double L) {
-  if (!(k1 > 0.0) || !(k2 > 0.0) || !(L > 0.0)) throw InputError("tight certificate needs k1, k2, L > 0");
+  if (!(k1 > 0.0) || !(k2 > 0.0) || !(L > 0.0) || !std::isfinite(k1) || !std::isfinite(k2) || !std::isfinite(L))
+    throw InputError(fmt::format("tight certificate needs finite k1, k2, L > 0 (k1 = {}, k2 = {}, L = {})", k1, k2, L));
   const auto feasible = [&](double gamma) { return L * shifted_transfer_peak(k1, k2, gamma) < 1.0; };
   // The feasible rates form an interval (-∞, γ_tight): a certificate for γ certifies every smaller rate.
   double lo = -1.0;
-  while (!feasible(lo)) lo *= 2.0;
+  while (!feasible(lo)) {
+    lo *= 2.0;
+    if (lo < -1e300) return -std::numeric_limits<double>::infinity();
+  }
   double hi = 0.5 * k1;  // A2 + γI stops being Hurwitz here
   for (int i = 0; i < 200 && hi - lo > 1e-14 * std::max(1.0, std::abs(hi)); ++i) {
     const double mid = 0.5 * (lo + hi);
@@ -58,7 +63,10 @@ double tight_rate(double k1, double k2, double L) {
 double tight_theta_star(double alpha, double beta, double gamma, double L) {
   const auto rate = [&](double theta) { return tight_rate(theta * alpha, theta * theta * beta, L); };
   double hi = 1.0;
-  while (rate(hi) < gamma) hi *= 2.0;
+  while (rate(hi) < gamma) {
+    hi *= 2.0;
+    if (hi > 1e150) throw InputError(fmt::format("no gain theta up to 1e150 certifies gamma = {} with L = {}", gamma, L));
+  }
   double lo = hi / 2.0;
   while (lo > 1e-12 && rate(lo) >= gamma) lo /= 2.0;
   for (int i = 0; i < 200 && hi - lo > 1e-14 * hi; ++i) {

@@ -1,31 +1,57 @@
 #include "obsgain/certified_bounds.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <condition_variable>
 #include <functional>
+#include <limits>
+#include <mutex>
 #include <numbers>
 #include <queue>
+#include <set>
+#include <thread>
 
 namespace obsgain {
 
 namespace {
 
-Interval hull_of(double lo, double hi) { return Interval(lo, hi); }
+using boost::numeric::square;
 
-// ||mid X||₂ computed in floating point, padded for its rounding, plus ||rad X||_F (rounded up): an upper
-// bound for every X in the interval matrix (Weyl), used beyond 2 x 2.
+constexpr double kInfinity = std::numeric_limits<double>::infinity();
+
+// The floating-point eigensolvers are backward stable: their error is a small multiple of n ε ||X||, far
+// below this relative pad for the sizes obsgain accepts (n <= 16).
+constexpr double kEigenPad = 1e-12;
+
+Interval magnitude_interval(const Interval& x) { return Interval(boost::numeric::norm(x)); }
+
+// max |x - centre| over x, rounded up.
+double radius_about(const Interval& x, double centre) {
+  return std::max((Interval(x.upper()) - Interval(centre)).upper(), (Interval(centre) - Interval(x.lower())).upper());
+}
+
+// ||mid X||₂ computed in floating point, padded, plus ||rad X||_F (rounded up): an upper bound for every X
+// in the interval matrix (Weyl).
 double weyl_norm_upper_bound(const IntervalMatrix& X) {
   Eigen::MatrixXd mid(X.rows(), X.cols());
   Interval radius2(0.0);
   for (Eigen::Index i = 0; i < X.rows(); ++i)
     for (Eigen::Index j = 0; j < X.cols(); ++j) {
-      mid(i, j) = boost::numeric::median(X(i, j));
-      const Interval r = Interval(std::max(X(i, j).upper() - mid(i, j), mid(i, j) - X(i, j).lower()));
-      radius2 += boost::numeric::square(r);
+      mid(i, j) = centre(X(i, j));
+      radius2 += square(Interval(radius_about(X(i, j), mid(i, j))));
     }
   const double m = mid.operatorNorm();
-  return (Interval(m) * Interval(1.0 + 1e-13) + boost::numeric::sqrt(radius2)).upper();
+  return (Interval(m) * Interval(1.0 + kEigenPad) + boost::numeric::sqrt(radius2)).upper();
+}
+
+// Frobenius norm, rounded up: a cheap upper bound of ||X||₂ used to skip choices before an eigensolve.
+double frobenius_upper_bound(const IntervalMatrix& X) {
+  Interval sum(0.0);
+  for (Eigen::Index i = 0; i < X.size(); ++i) sum += square(magnitude_interval(X(i)));
+  return boost::numeric::sqrt(sum).upper();
 }
 
 }  // namespace
@@ -33,12 +59,10 @@ double weyl_norm_upper_bound(const IntervalMatrix& X) {
 double norm_upper_bound(const IntervalMatrix& X) {
   if (X.rows() != 2 || X.cols() != 2) return weyl_norm_upper_bound(X);
   // λmax(XᵀX) = (p + r)/2 + sqrt(((p - r)/2)² + s²) with XᵀX = [[p, s], [s, r]].
-  const Interval p = boost::numeric::square(X(0, 0)) + boost::numeric::square(X(1, 0));
-  const Interval r = boost::numeric::square(X(0, 1)) + boost::numeric::square(X(1, 1));
+  const Interval p = square(X(0, 0)) + square(X(1, 0));
+  const Interval r = square(X(0, 1)) + square(X(1, 1));
   const Interval s = X(0, 0) * X(0, 1) + X(1, 0) * X(1, 1);
-  const Interval half_difference = (p - r) / 2.0;
-  const Interval lambda =
-      (p + r) / 2.0 + boost::numeric::sqrt(boost::numeric::square(half_difference) + boost::numeric::square(s));
+  const Interval lambda = (p + r) / 2.0 + boost::numeric::sqrt(square((p - r) / 2.0) + square(s));
   // Both are valid upper bounds; the closed form wins on wide boxes, Weyl's on narrow ones (no dependency).
   return std::min(boost::numeric::sqrt(lambda).upper(), weyl_norm_upper_bound(X));
 }
@@ -46,183 +70,463 @@ double norm_upper_bound(const IntervalMatrix& X) {
 double smallest_eigenvalue_lower_bound(const IntervalMatrix& M) {
   if (M.rows() == 2) {
     const Interval a = M(0, 0), b = M(0, 1), c = M(1, 1);
-    const Interval half_difference = (a - c) / 2.0;
-    return ((a + c) / 2.0 - boost::numeric::sqrt(boost::numeric::square(half_difference) + boost::numeric::square(b)))
-        .lower();
+    return ((a + c) / 2.0 - boost::numeric::sqrt(square((a - c) / 2.0) + square(b))).lower();
   }
   // Weyl: λmin(M) >= λmin(mid M) - ||rad M||_F, with a pad for the floating-point eigenvalue.
   Eigen::MatrixXd mid(M.rows(), M.cols());
   Interval radius2(0.0);
   for (Eigen::Index i = 0; i < M.rows(); ++i)
     for (Eigen::Index j = 0; j < M.cols(); ++j) {
-      mid(i, j) = boost::numeric::median(M(i, j));
-      radius2 += boost::numeric::square(Interval(std::max(M(i, j).upper() - mid(i, j), mid(i, j) - M(i, j).lower())));
+      mid(i, j) = centre(M(i, j));
+      radius2 += square(Interval(radius_about(M(i, j), mid(i, j))));
     }
   const Eigen::VectorXd lambda = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(mid).eigenvalues();
-  const double pad = 1e-13 * lambda.cwiseAbs().maxCoeff();
+  const double pad = kEigenPad * lambda.cwiseAbs().maxCoeff();
   return (Interval(lambda(0)) - Interval(pad) - boost::numeric::sqrt(radius2)).lower();
 }
 
 namespace {
 
-IntervalMatrix inverse_2x2(const IntervalMatrix& M, bool& invertible) {
-  const Interval det = M(0, 0) * M(1, 1) - M(0, 1) * M(1, 0);
-  invertible = det.lower() > 0.0;
-  IntervalMatrix inverse(2, 2);
-  if (!invertible) return inverse;
-  inverse(0, 0) = M(1, 1) / det;
-  inverse(0, 1) = -M(0, 1) / det;
-  inverse(1, 0) = -M(1, 0) / det;
-  inverse(1, 1) = M(0, 0) / det;
+IntervalMatrix product(const IntervalMatrix& A, const IntervalMatrix& B) {
+  IntervalMatrix C(A.rows(), B.cols());
+  for (Eigen::Index i = 0; i < A.rows(); ++i)
+    for (Eigen::Index j = 0; j < B.cols(); ++j) {
+      Interval sum(0.0);
+      for (Eigen::Index k = 0; k < A.cols(); ++k) sum += A(i, k) * B(k, j);
+      C(i, j) = sum;
+    }
+  return C;
+}
+
+IntervalMatrix to_interval(const Eigen::MatrixXd& A) { return A.cast<Interval>(); }
+
+// Both contain the true values, so their intersection does too (never empty in exact arithmetic; if rounding
+// ever made it so, keep the first).
+IntervalMatrix intersection(const IntervalMatrix& A, const IntervalMatrix& B) {
+  IntervalMatrix C = A;
+  for (Eigen::Index i = 0; i < A.size(); ++i) {
+    const double lo = std::max(A(i).lower(), B(i).lower()), hi = std::min(A(i).upper(), B(i).upper());
+    if (lo <= hi) C(i) = Interval(lo, hi);
+  }
+  return C;
+}
+
+// A matrix function over a box in centred form: X(q) = X(m) + Σ_k S_k (q_k - m_k) with S_k ∈ slope[k]
+// (the mean-value theorem, entry by entry), and the natural enclosure `box` as a safeguard.
+struct Centred {
+  IntervalMatrix box, mid;
+  std::vector<IntervalMatrix> slope;
+};
+
+// t_k = q_k - m_k over the box (outward rounded).
+using Offsets = std::vector<Interval>;
+
+IntervalMatrix enclosure(const Centred& c, const Offsets& t) {
+  IntervalMatrix sum = c.mid;
+  for (std::size_t k = 0; k < t.size(); ++k) sum += c.slope[k] * t[k];
+  return intersection(c.box, sum);
+}
+
+// The second-order refinement: ||X(m) + Σ mid(S_k) t_k|| is convex in t, so its maximum over the box of t
+// sits at a corner; the rest, Σ (S_k - mid S_k) t_k, is bounded by ||Σ rad(S_k) |t_k|||_F. Its excess over the
+// true supremum shrinks quadratically with the box (the slopes' widths times the box's).
+template <class CornerBound>
+double centred_corners(const Centred& c, const Offsets& t, CornerBound&& corner_bound, bool maximum) {
+  const auto m = static_cast<int>(t.size());
+  const Eigen::Index rows = c.mid.rows(), cols = c.mid.cols();
+  IntervalMatrix remainder_sum = IntervalMatrix::Constant(rows, cols, Interval(0.0));
+  for (int k = 0; k < m; ++k) {
+    const double reach = boost::numeric::norm(t[k]);
+    for (Eigen::Index i = 0; i < c.mid.size(); ++i)
+      remainder_sum(i) += Interval(radius_about(c.slope[k](i), centre(c.slope[k](i)))) * reach;
+  }
+  const double rest = frobenius_upper_bound(remainder_sum);
+  double best = maximum ? -kInfinity : kInfinity;
+  for (unsigned corner = 0; corner < (1u << m); ++corner) {
+    IntervalMatrix Y = c.mid;
+    for (int k = 0; k < m; ++k) {
+      const Interval tk((corner >> k) & 1u ? t[k].upper() : t[k].lower());
+      for (Eigen::Index i = 0; i < Y.size(); ++i) Y(i) += Interval(centre(c.slope[k](i))) * tk;
+    }
+    const double value = corner_bound(Y);
+    best = maximum ? std::max(best, value) : std::min(best, value);
+  }
+  return maximum ? (Interval(best) + Interval(rest)).upper() : (Interval(best) - Interval(rest)).lower();
+}
+
+// Corners are 2^m eigen-solves: worth it only on boxes narrow enough for the quadratic term to win.
+constexpr int kMaxCornerDimensions = 6;
+
+double centred_norm_upper(const Centred& c, const Offsets& t) {
+  double bound = norm_upper_bound(enclosure(c, t));
+  if (static_cast<int>(t.size()) <= kMaxCornerDimensions)
+    bound = std::min(bound, centred_corners(c, t, [](const IntervalMatrix& Y) { return weyl_norm_upper_bound(Y); }, true));
+  return bound;
+}
+
+double centred_smallest_eigenvalue_lower(const Centred& c, const Offsets& t) {
+  double bound = smallest_eigenvalue_lower_bound(enclosure(c, t));
+  if (static_cast<int>(t.size()) <= kMaxCornerDimensions)
+    bound = std::max(bound, centred_corners(c, t, [](const IntervalMatrix& Y) { return smallest_eigenvalue_lower_bound(Y); },
+                                            false));
+  return bound;
+}
+
+// Encloses M⁻¹ for every M in an interval matrix: with C ≈ mid(M)⁻¹ and E = I - C M, ||E||_∞ = ε < 1,
+// M⁻¹ = (I - E)⁻¹ C = C + E C + E² (I - E)⁻¹ C, and every entry of the last term is at most ε² ||C||_∞ / (1 - ε).
+std::optional<IntervalMatrix> inverse_enclosure(const IntervalMatrix& M) {
+  const Eigen::Index n = M.rows();
+  Eigen::MatrixXd mid(n, n);
+  for (Eigen::Index i = 0; i < M.size(); ++i) mid(i) = centre(M(i));
+  const Eigen::MatrixXd C = mid.inverse();
+  if (!C.allFinite()) return std::nullopt;
+  const IntervalMatrix Ci = to_interval(C);
+  IntervalMatrix E = -product(Ci, M);
+  for (Eigen::Index i = 0; i < n; ++i) E(i, i) += 1.0;
+  Interval epsilon(0.0), c_norm(0.0);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    Interval row(0.0), c_row(0.0);
+    for (Eigen::Index j = 0; j < n; ++j) {
+      row += magnitude_interval(E(i, j));
+      c_row += Interval(std::abs(C(i, j)));
+    }
+    epsilon = Interval(std::max(epsilon.upper(), row.upper()));
+    c_norm = Interval(std::max(c_norm.upper(), c_row.upper()));
+  }
+  if (!(epsilon.upper() < 1.0)) return std::nullopt;
+  const double tail = (square(epsilon) * c_norm / (Interval(1.0) - epsilon)).upper();
+  IntervalMatrix inverse = Ci + product(E, Ci);
+  for (Eigen::Index i = 0; i < inverse.size(); ++i) inverse(i) += Interval(-tail, tail);
   return inverse;
 }
 
+// The searched joints' box, the full configuration as duals (the box, and its midpoint without directions),
+// and the offsets q - m.
+struct BoxPoint {
+  std::vector<DualInterval> box, mid;
+  Offsets offsets;
+  Eigen::VectorXd midpoint;
+};
+
+struct SearchDomain {
+  std::vector<int> joints;
+  Eigen::VectorXd fixed_q;
+  std::vector<Interval> domain;
+};
+
+BoxPoint box_point(const SearchDomain& s, const std::vector<Interval>& x) {
+  const auto m = static_cast<int>(x.size());
+  BoxPoint b;
+  b.midpoint = s.fixed_q;
+  for (Eigen::Index i = 0; i < s.fixed_q.size(); ++i) {
+    b.box.emplace_back(Interval(s.fixed_q(i)));
+    b.mid.emplace_back(Interval(s.fixed_q(i)));
+  }
+  for (int k = 0; k < m; ++k) {
+    const double c = centre(x[k]);
+    b.box[s.joints[k]] = DualInterval::variable(x[k], k, m);
+    b.mid[s.joints[k]] = DualInterval(Interval(c));
+    b.midpoint(s.joints[k]) = c;
+    b.offsets.push_back(x[k] - Interval(c));
+  }
+  return b;
+}
+
+// The vertex/pattern structure of B and L_joint (design notes §3, §4): J(q, w) = 2 [wᵀN_1; …; wᵀN_n] is linear in
+// the tensors, so its centred form follows from theirs.
+IntervalMatrix jacobian_of(const std::vector<IntervalMatrix>& N, const Eigen::VectorXd& w) {
+  const auto n = static_cast<Eigen::Index>(N.size());
+  IntervalMatrix J(n, n);
+  for (Eigen::Index i = 0; i < n; ++i)
+    for (Eigen::Index k = 0; k < n; ++k) {
+      Interval sum(0.0);
+      for (Eigen::Index j = 0; j < n; ++j) sum += N[i](k, j) * w(j);
+      J(i, k) = 2.0 * sum;
+    }
+  return J;
+}
+
+struct TensorEnclosure {
+  std::vector<IntervalMatrix> box, mid;
+  std::vector<std::vector<IntervalMatrix>> slope;  // [direction][i]
+};
+
+TensorEnclosure tensors_over(const IntervalDynamics& dynamics, const BoxPoint& b) {
+  TensorEnclosure t;
+  const std::vector<MatrixEnclosure> over_box = dynamics.coriolis_tensors(b.box);
+  const std::vector<MatrixEnclosure> at_mid = dynamics.coriolis_tensors(b.mid);
+  t.slope.resize(b.offsets.size());
+  for (std::size_t i = 0; i < over_box.size(); ++i) {
+    t.box.push_back(over_box[i].value);
+    t.mid.push_back(at_mid[i].value);
+    for (std::size_t k = 0; k < b.offsets.size(); ++k) t.slope[k].push_back(over_box[i].derivative[k]);
+  }
+  return t;
+}
+
+Centred jacobian_centred(const TensorEnclosure& t, const Eigen::VectorXd& w) {
+  Centred c{jacobian_of(t.box, w), jacobian_of(t.mid, w), {}};
+  for (const auto& slope : t.slope) c.slope.push_back(jacobian_of(slope, w));
+  return c;
+}
+
+Centred mass_centred(const IntervalDynamics& dynamics, const BoxPoint& b) {
+  const MatrixEnclosure over_box = dynamics.mass_matrix(b.box);
+  return {over_box.value, dynamics.mass_matrix(b.mid).value, over_box.derivative};
+}
+
+// An upper bound over a box, and the side to split next: the one whose derivative enclosures' widths
+// contribute most to the centred form's remainder (sides the function does not depend on are never split).
+struct BoxBound {
+  double upper = 0.0;
+  std::vector<double> smear;  // per searched side: Σ width(∂X/∂q_k) |q_k - m_k|, over the entries that matter
+};
+
+void add_smear(const Centred& c, const Offsets& t, double weight, std::vector<double>& smear) {
+  smear.resize(t.size(), 0.0);
+  for (std::size_t k = 0; k < t.size(); ++k) {
+    double sum = 0.0;
+    for (Eigen::Index i = 0; i < c.slope[k].size(); ++i) sum += boost::numeric::width(c.slope[k](i));
+    smear[k] += weight * sum * boost::numeric::norm(t[k]);
+  }
+}
+
 struct Box {
-  IntervalVector x;  // the searched joints
+  std::vector<Interval> x;
   double upper;
+  std::vector<double> smear;
   bool operator<(const Box& other) const { return upper < other.upper; }
 };
 
-// Best-first branch and bound: always split the box with the largest upper bound, so the global upper is
-// the top of the queue; stop when it is within the gap of the best point value.
-Bracket branch_and_bound(const std::vector<int>& joints, const Eigen::VectorXd& fixed_q,
-                         const IntervalVector& domain, const std::function<double(const IntervalVector&)>& upper,
-                         const std::function<double(const Eigen::VectorXd&)>& point, const Eigen::VectorXd& seed,
-                         const CertifiedOptions& options) {
+// Best-first branch and bound on all cores: always split the box with the largest upper bound, so the
+// global upper is the top of the queue; stop at the gap, the deadline or the box limit. `upper(box, lower)`
+// may stop refining once it is sure the box is below `lower` (the running best attained value).
+BoundBracket branch_and_bound(const SearchDomain& s, const std::function<BoxBound(const BoxPoint&, double)>& upper,
+                              const std::function<double(const Eigen::VectorXd&)>& point, const Eigen::VectorXd& seed,
+                              const CertifiedOptions& options, std::chrono::steady_clock::time_point deadline) {
   const auto start = std::chrono::steady_clock::now();
-  const auto full = [&](const IntervalVector& x) {
-    IntervalVector q(fixed_q.size());
-    for (Eigen::Index i = 0; i < fixed_q.size(); ++i) q[i] = Interval(fixed_q(i));
-    for (std::size_t k = 0; k < joints.size(); ++k) q[joints[k]] = x[k];
-    return q;
-  };
-  const auto midpoint = [&](const IntervalVector& x) {
-    Eigen::VectorXd q = fixed_q;
-    for (std::size_t k = 0; k < joints.size(); ++k) q(joints[k]) = boost::numeric::median(x[k]);
-    return q;
-  };
-  Bracket bracket;
+  BoundBracket bracket;
   bracket.argmax = seed;
   bracket.lower = point(seed);
   std::priority_queue<Box> queue;
-  queue.push({domain, upper(full(domain))});
-  bracket.boxes = 1;
-  while (!queue.empty() && bracket.boxes < options.max_boxes) {
-    const Box box = queue.top();
-    if (std::isfinite(box.upper) && box.upper - bracket.lower <= options.relative_gap * box.upper) break;
-    queue.pop();
-    std::size_t widest = 0;
-    for (std::size_t k = 1; k < box.x.size(); ++k)
-      if (boost::numeric::width(box.x[k]) > boost::numeric::width(box.x[widest])) widest = k;
-    const double middle = boost::numeric::median(box.x[widest]);
-    for (const Interval& half : {hull_of(box.x[widest].lower(), middle), hull_of(middle, box.x[widest].upper())}) {
-      Box child{box.x, 0.0};
-      child.x[widest] = half;
-      ++bracket.boxes;
-      const Eigen::VectorXd q = midpoint(child.x);
-      const double value = point(q);
-      if (value > bracket.lower) {
-        bracket.lower = value;
-        bracket.argmax = q;
-      }
-      child.upper = upper(full(child.x));
-      if (child.upper > bracket.lower) queue.push(std::move(child));
-    }
+  {
+    BoxBound first = upper(box_point(s, s.domain), bracket.lower);
+    queue.push({s.domain, first.upper, std::move(first.smear)});
   }
-  bracket.upper = queue.empty() ? bracket.lower : std::max(queue.top().upper, bracket.lower);
+  bracket.boxes = 1;
+
+  std::mutex mutex;
+  std::condition_variable changed;
+  int busy = 0;
+  std::multiset<double> in_flight;
+  double pruned_upper = 0.0;  // the largest bound of a discarded box: below the attained value, but proven
+  bool stop = false;
+  const auto worker = [&] {
+    const UpwardRounding upward;
+    std::unique_lock lock(mutex);
+    while (true) {
+      while (!stop && queue.empty() && busy > 0) changed.wait(lock);
+      if (stop || queue.empty()) break;
+      // The global upper bound is the largest of the queued and the in-flight boxes' bounds.
+      const double global_upper = std::max(queue.top().upper, in_flight.empty() ? 0.0 : *in_flight.rbegin());
+      const bool converged = std::isfinite(global_upper) && global_upper - bracket.lower <= options.relative_gap * global_upper;
+      if (converged || bracket.boxes >= options.max_boxes || std::chrono::steady_clock::now() >= deadline) {
+        stop = true;
+        break;
+      }
+      const Box box = queue.top();
+      queue.pop();
+      ++busy;
+      const auto flight = in_flight.insert(box.upper);
+      const double lower = bracket.lower;
+      lock.unlock();
+
+      std::size_t side = 0;
+      for (std::size_t k = 1; k < box.x.size(); ++k)
+        if (box.smear[k] > box.smear[side]) side = k;
+      const double middle = centre(box.x[side]);
+      std::array<Box, 2> children{Box{box.x, 0.0, {}}, Box{box.x, 0.0, {}}};
+      children[0].x[side] = Interval(box.x[side].lower(), middle);
+      children[1].x[side] = Interval(middle, box.x[side].upper());
+      double best = lower;
+      Eigen::VectorXd best_q;
+      for (Box& child : children) {
+        const BoxPoint b = box_point(s, child.x);
+        const double value = point(b.midpoint);
+        if (value > best) {
+          best = value;
+          best_q = b.midpoint;
+        }
+        // A child's supremum cannot exceed its parent's bound.
+        BoxBound bound = upper(b, best);
+        child.upper = std::min(box.upper, bound.upper);
+        child.smear = std::move(bound.smear);
+      }
+
+      lock.lock();
+      --busy;
+      in_flight.erase(flight);
+      bracket.boxes += 2;
+      if (best > bracket.lower) {
+        bracket.lower = best;
+        bracket.argmax = best_q;
+      }
+      for (Box& child : children) {
+        if (child.upper > bracket.lower)
+          queue.push(std::move(child));
+        else
+          pruned_upper = std::max(pruned_upper, child.upper);
+      }
+      changed.notify_all();
+    }
+    changed.notify_all();
+  };
+  const int threads = options.threads > 0 ? options.threads : std::max(1u, std::thread::hardware_concurrency());
+  std::vector<std::thread> pool;
+  for (int i = 1; i < threads; ++i) pool.emplace_back(worker);
+  worker();
+  for (auto& thread : pool) thread.join();
+  // Every part of the domain is in the queue or was discarded with a proven bound below the attained value.
+  bracket.upper = std::max(queue.empty() ? 0.0 : queue.top().upper, pruned_upper);
+  bracket.lower = std::min(bracket.lower, bracket.upper);  // the attained value is a float estimate: ulps
   bracket.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return bracket;
 }
 
 }  // namespace
 
+std::string certification_unavailable(const Model& model) {
+  if (dynamic_cast<const IntervalDynamics*>(model.dynamics.get()) == nullptr)
+    return fmt::format("model '{}' cannot be evaluated on intervals", model.name);
+  if (static_cast<int>(model.dynamics->configuration_joints().size()) > kMaxDirections)
+    return fmt::format("model '{}' depends on {} joint positions; certified bounds search at most {}", model.name,
+                       model.dynamics->configuration_joints().size(), kMaxDirections);
+  return {};
+}
+
 std::optional<CertifiedBounds> certify_bounds(const Model& model, const BoundReport& numeric,
                                               const CertifiedOptions& options) {
-  const auto* dynamics = dynamic_cast<const IntervalDynamics*>(model.dynamics.get());
-  if (dynamics == nullptr || model.dof() != 2) return std::nullopt;
+  if (!certification_unavailable(model).empty()) return std::nullopt;
+  const auto& dynamics = dynamic_cast<const IntervalDynamics&>(*model.dynamics);
   const Eigen::VectorXd& V = numeric.velocity_bounds;
   const int n = model.dof();
-  const std::vector<int> joints = model.dynamics->configuration_joints();
-  Eigen::VectorXd fixed_q = Eigen::VectorXd::Zero(n);
-  IntervalVector domain;
-  for (int j : joints) {
+  SearchDomain s;
+  s.joints = model.dynamics->configuration_joints();
+  s.fixed_q = Eigen::VectorXd::Zero(n);
+  for (int j : s.joints) {
     const JointDomain& joint = model.joints[j];
-    domain.push_back(joint.continuous ? Interval(-std::numbers::pi, std::numbers::pi) : Interval(joint.lower, joint.upper));
+    s.domain.push_back(joint.continuous ? Interval(-std::numbers::pi, std::numbers::pi) : Interval(joint.lower, joint.upper));
   }
   const Eigen::MatrixXd vertices = box_vertices(V);
   const unsigned count = static_cast<unsigned>(vertices.cols());
-  // J(q, -w) = -J(q, w): with F = 0 the vertices with w_n < 0 repeat the others (as in compute_bounds).
-  const unsigned first = model.friction.isZero(0.0) ? count / 2 : 0u;
-  const auto pattern = [n](unsigned s) {
-    Eigen::VectorXd D(n);
-    for (int i = 0; i < n; ++i) D(i) = ((s >> i) & 1u) ? 1.0 : 0.0;
-    return D;
+  // J(q, -w) = -J(q, w): the vertices with w_n < 0 repeat the others for ||J||, and for ||M⁻¹(J D + F)|| too
+  // when F = 0 (as in compute_bounds).
+  const unsigned half = count / 2;
+  const bool frictionless = model.friction.isZero(0.0);
+  const IntervalMatrix F = to_interval(model.friction);
+
+  const auto start = std::chrono::steady_clock::now();
+  const bool unlimited = options.budget_seconds <= 0.0;
+  // Each bound gets an equal share of what is left of the budget when it starts. L_joint goes first: the
+  // default design rests on it alone (M0 and B only enter L_paper).
+  const auto deadline_for = [&](int remaining_bounds) {
+    if (unlimited) return std::chrono::steady_clock::time_point::max();
+    const double used = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const double share = std::max(0.0, options.budget_seconds - used) / remaining_bounds;
+    return std::chrono::steady_clock::now() + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                                  std::chrono::duration<double>(share));
   };
 
   CertifiedBounds result;
-  // M0 = sup 1/λmin(M): refuse a box whose M cannot be shown positive definite by splitting it further.
-  const auto m0_upper = [&](const IntervalVector& q) {
-    const double lambda = smallest_eigenvalue_lower_bound(dynamics->mass_matrix(q));
-    return lambda > 0.0 ? (Interval(1.0) / Interval(lambda)).upper() : std::numeric_limits<double>::infinity();
-  };
-  result.M0 = branch_and_bound(joints, fixed_q, domain, m0_upper,
-                               [&](const Eigen::VectorXd& q) { return inverse_inertia_norm(model, q); },
-                               numeric.M0.q, options);
-
-  const auto interval_jacobian = [&](const std::vector<IntervalMatrix>& N, const Eigen::VectorXd& w) {
-    IntervalMatrix J(n, n);
-    for (int i = 0; i < n; ++i)
-      for (int k = 0; k < n; ++k) {
-        Interval sum(0.0);
-        for (int j = 0; j < n; ++j) sum += N[i](k, j) * w(j);
-        J(i, k) = 2.0 * sum;
-      }
-    return J;
-  };
-  const auto b_upper = [&](const IntervalVector& q) {
-    const std::vector<IntervalMatrix> N = dynamics->coriolis_tensors(q);
+  // X = M⁻¹(J D + F) = A D + R with A = M⁻¹J, R = M⁻¹F. Centred forms: ∂A/∂q_k = M⁻¹(∂J_k - ∂M_k A), likewise R.
+  const auto l_upper = [&](const BoxPoint& b, double lower) {
+    const Centred M = mass_centred(dynamics, b);
+    const auto inverse_box = inverse_enclosure(enclosure(M, b.offsets));
+    const auto inverse_mid = inverse_enclosure(M.mid);
+    BoxBound bound{kInfinity, {}};
+    const TensorEnclosure t = tensors_over(dynamics, b);
+    if (!inverse_box || !inverse_mid) {
+      // M varies too much over the box for a Neumann enclosure of M⁻¹ (ill-conditioned inertia on a wide box):
+      // ||M⁻¹(J D + F)|| <= (||J|| + ||F||) / λmin(M), finite as soon as M is proven positive definite.
+      add_smear(M, b.offsets, 1.0, bound.smear);
+      const double lambda = std::max(centred_smallest_eigenvalue_lower(M, b.offsets), dynamics.inertia_floor());
+      if (!(lambda > 0.0)) return bound;
+      double J_norm = 0.0;
+      for (unsigned c = half; c < count; ++c)
+        J_norm = std::max(J_norm, norm_upper_bound(enclosure(jacobian_centred(t, vertices.col(c)), b.offsets)));
+      bound.upper = ((Interval(J_norm) + Interval(norm_upper_bound(F))) / Interval(lambda)).upper();
+      return bound;
+    }
+    const auto m = b.offsets.size();
+    const auto left_inverse = [&](const Centred& Y) {
+      Centred X{product(*inverse_box, Y.box), product(*inverse_mid, Y.mid), {}};
+      for (std::size_t k = 0; k < m; ++k) X.slope.push_back(product(*inverse_box, Y.slope[k] - product(M.slope[k], X.box)));
+      return X;
+    };
+    const Centred R = left_inverse(Centred{F, F, std::vector<IntervalMatrix>(m, IntervalMatrix::Constant(n, n, Interval(0.0)))});
+    const unsigned last_pattern = frictionless ? count - 1 : 0u;
     double best = 0.0;
-    for (unsigned c = first; c < count; ++c) best = std::max(best, norm_upper_bound(interval_jacobian(N, vertices.col(c))));
-    return best;
-  };
-  const auto b_point = [&](const Eigen::VectorXd& q) {
-    double best = 0.0;
-    for (unsigned c = first; c < count; ++c) best = std::max(best, coriolis_jacobian_norm(model, q, vertices.col(c)));
-    return best;
-  };
-  result.B = branch_and_bound(joints, fixed_q, domain, b_upper, b_point, numeric.B.q, options);
-
-  const auto l_upper = [&](const IntervalVector& q) {
-    bool invertible = false;
-    const IntervalMatrix Minv = inverse_2x2(dynamics->mass_matrix(q), invertible);
-    if (!invertible) return std::numeric_limits<double>::infinity();
-    const std::vector<IntervalMatrix> N = dynamics->coriolis_tensors(q);
-    double best = 0.0;
-    for (unsigned c = first; c < count; ++c) {
-      const IntervalMatrix J = interval_jacobian(N, vertices.col(c));
-      for (unsigned s = 0; s < count; ++s) {
-        IntervalMatrix X(n, n);
-        for (int i = 0; i < n; ++i)
-          for (int k = 0; k < n; ++k) X(i, k) = J(i, k) * ((s >> k) & 1u ? 1.0 : 0.0) + model.friction(i, k);
-        IntervalMatrix product(n, n);
-        for (int i = 0; i < n; ++i)
-          for (int k = 0; k < n; ++k) {
-            Interval sum(0.0);
-            for (int j = 0; j < n; ++j) sum += Minv(i, j) * X(j, k);
-            product(i, k) = sum;
-          }
-        best = std::max(best, norm_upper_bound(product));
+    for (unsigned c = frictionless ? half : 0u; c < count; ++c) {
+      const Centred A = left_inverse(jacobian_centred(t, vertices.col(c)));
+      add_smear(A, b.offsets, 1.0, bound.smear);
+      // Full patterns first: with F = 0 the full pattern is the maximum (||A D|| <= ||A||) and the only one
+      // searched; in general it usually wins, so that a high running value lets the cheap bound skip most of the others.
+      for (unsigned pattern = count; pattern-- > last_pattern;) {
+        const auto select = [&](const IntervalMatrix& a, const IntervalMatrix& r) {
+          IntervalMatrix x = r;
+          for (int j = 0; j < n; ++j)
+            if ((pattern >> j) & 1u) x.col(j) += a.col(j);
+          return x;
+        };
+        Centred X{select(A.box, R.box), select(A.mid, R.mid), {}};
+        for (std::size_t k = 0; k < m; ++k) X.slope.push_back(select(A.slope[k], R.slope[k]));
+        const IntervalMatrix enclosed = enclosure(X, b.offsets);
+        const double floor = std::max(best, lower);
+        const double frobenius = frobenius_upper_bound(enclosed);
+        if (frobenius <= floor) {
+          best = std::max(best, frobenius);
+          continue;
+        }
+        const double cheap = norm_upper_bound(enclosed);
+        best = std::max(best, cheap <= floor ? cheap : centred_norm_upper(X, b.offsets));
       }
     }
-    return best;
+    bound.upper = best;
+    return bound;
   };
-  const auto l_point = [&](const Eigen::VectorXd& q) {
+  result.L_joint = branch_and_bound(s, l_upper, [&](const Eigen::VectorXd& q) { return max_joint_lipschitz_norm(model, q, V); },
+                                    numeric.L_joint.q, options, deadline_for(3));
+
+  // M0 = sup 1/λmin(M): a box whose M cannot be shown positive definite gets +∞ and is split further.
+  const auto b_upper = [&](const BoxPoint& b, double lower) {
+    const TensorEnclosure t = tensors_over(dynamics, b);
+    BoxBound bound;
     double best = 0.0;
-    for (unsigned c = first; c < count; ++c)
-      for (unsigned s = 0; s < count; ++s) best = std::max(best, joint_lipschitz_norm(model, q, vertices.col(c), pattern(s)));
-    return best;
+    for (unsigned c = half; c < count; ++c) {
+      const Centred J = jacobian_centred(t, vertices.col(c));
+      // A choice whose cheap bound cannot beat what is already known (this box's best, or the value attained
+      // elsewhere) changes neither the box's fate nor the bracket: its refinement is skipped (its cheap bound
+      // still counts, so that the box's value stays an upper bound).
+      add_smear(J, b.offsets, 1.0, bound.smear);
+      const double cheap = norm_upper_bound(enclosure(J, b.offsets));
+      best = std::max(best, cheap <= std::max(best, lower) ? cheap : centred_norm_upper(J, b.offsets));
+    }
+    bound.upper = best;
+    return bound;
   };
-  result.L_joint = branch_and_bound(joints, fixed_q, domain, l_upper, l_point, numeric.L_joint.q, options);
+  result.B = branch_and_bound(s, b_upper, [&](const Eigen::VectorXd& q) { return max_coriolis_jacobian_norm(model, q, V); },
+                              numeric.B.q, options, deadline_for(2));
+
+  const auto m0_upper = [&](const BoxPoint& b, double) {
+    const Centred M = mass_centred(dynamics, b);
+    const double lambda = std::max(centred_smallest_eigenvalue_lower(M, b.offsets), dynamics.inertia_floor());
+    BoxBound bound{lambda > 0.0 ? (Interval(1.0) / Interval(lambda)).upper() : kInfinity, {}};
+    add_smear(M, b.offsets, 1.0, bound.smear);
+    return bound;
+  };
+  result.M0 = branch_and_bound(s, m0_upper, [&](const Eigen::VectorXd& q) { return inverse_inertia_norm(model, q); },
+                               numeric.M0.q, options, deadline_for(1));
+
   return result;
 }
 
@@ -233,8 +537,11 @@ void apply_certified_bounds(BoundReport& report, const CertifiedBounds& certifie
   report.L_joint_bracket = certified.L_joint;
   report.M0.value = certified.M0.upper;
   report.B.value = certified.B.upper;
-  report.L_joint.value = certified.L_joint.upper;
   report.L_paper = (Interval(report.M0.value) * (Interval(report.B.value) + Interval(report.F_norm))).upper();
+  // L_joint <= L_paper holds for every q, w, D (design notes §4): a proven L_paper bounds L_joint too, and is
+  // the smaller of the two when the branch and bound of L_joint ran out of budget on a wide domain.
+  if (report.L_paper < report.L_joint_bracket.upper) report.L_joint_bracket.upper = report.L_paper;
+  report.L_joint.value = report.L_joint_bracket.upper;
   report.wall_seconds += certified.M0.seconds + certified.B.seconds + certified.L_joint.seconds;
 }
 

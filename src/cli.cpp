@@ -37,6 +37,8 @@ void add_design_options(CLI::App& app, DesignArguments& a) {
   app.add_option("--base-link", a.base_link, "URDF: the chain's base link (default: the root)");
   app.add_option("--tip-link", a.tip_link, "URDF: the chain's tip link (default: the single leaf)");
   app.add_option("--actuated", a.actuated, "URDF: 0/1 per joint, e.g. 1,0 for a Pendubot (default: all)");
+  app.add_option("--armature", a.armature,
+                 "URDF or model file: reflected rotor inertia per joint a1,...,an [kg m^2] (default: the file's)");
   app.add_option("--vmax", a.vmax, "velocity bounds V1,...,Vn [rad/s] (default: the model's)");
   app.add_option("--gamma", a.gamma, "target convergence rate [1/s]: theta is the smallest gain certifying it");
   app.add_option("--theta", a.theta, "evaluate this gain theta and report the certified rate");
@@ -53,6 +55,9 @@ void add_design_options(CLI::App& app, DesignArguments& a) {
   app.add_option("--bounds", a.bounds, "certified (interval branch and bound) or numeric (optimisers only)")
       ->check(CLI::IsMember({"certified", "numeric"}))
       ->capture_default_str();
+  app.add_option("--bound-budget", a.bound_budget,
+                 "certified bounds: wall-time budget in seconds for the interval search (default 120; 0: until the "
+                 "gap target); the design uses the proven upper ends reached, whatever the gap");
   app.add_option("--rate-margin", a.rate_margin,
                  "tight certificate: P is computed at gamma_sup (1 - margin) (default 0.01)");
 }
@@ -71,6 +76,7 @@ DesignOptions to_design_options(const DesignArguments& a) {
   o.bound_method = a.bounds == "numeric" ? BoundMethod::numeric : BoundMethod::certified;
   if (!a.L.empty()) o.L_override = parse_number("L", a.L);
   if (!a.rate_margin.empty()) o.rate_margin = parse_number("rate-margin", a.rate_margin);
+  if (!a.bound_budget.empty()) o.certified_bounds.budget_seconds = parse_number("bound-budget", a.bound_budget);
   if (!a.vmax.empty()) o.velocity_bounds = parse_number_list("vmax", a.vmax);
   for (Eigen::Index i = 0; i < o.velocity_bounds.size(); ++i) {
     if (o.velocity_bounds(i) <= 0.0)
@@ -81,7 +87,14 @@ DesignOptions to_design_options(const DesignArguments& a) {
 }
 
 RobotSource to_robot_source(const DesignArguments& a) {
-  RobotSource source{a.robot, a.base_link, a.tip_link, {}};
+  RobotSource source{a.robot, a.base_link, a.tip_link, {}, {}};
+  if (!a.armature.empty()) {
+    const Eigen::VectorXd armature = parse_number_list("armature", a.armature);
+    for (Eigen::Index i = 0; i < armature.size(); ++i) {
+      if (armature(i) < 0.0) throw InputError(fmt::format("armature: a{} = {} must be >= 0", i + 1, armature(i)));
+      source.armature.push_back(armature(i));
+    }
+  }
   if (!a.actuated.empty()) {
     for (const double flag : parse_number_list("actuated", a.actuated)) {
       if (flag != 0.0 && flag != 1.0) throw InputError(fmt::format("actuated: flag {} must be 0 or 1", flag));

@@ -85,6 +85,9 @@ void validate_design_options(const DesignOptions& options) {
     require_positive("beta", options.beta);
   }
   if (options.L_override) require_positive("L", *options.L_override);
+  if (!std::isfinite(options.certified_bounds.budget_seconds) || options.certified_bounds.budget_seconds < 0.0)
+    throw InputError(fmt::format("bound-budget = {} must be >= 0 seconds (0: until the gap is reached)",
+                                 options.certified_bounds.budget_seconds));
   if (!std::isfinite(options.rate_margin) || options.rate_margin <= 0.0 || options.rate_margin >= 0.5)
     throw InputError(fmt::format("rate margin = {} must lie in (0, 0.5)", options.rate_margin));
 }
@@ -102,6 +105,10 @@ Design design_from_bounds(const Model& model, const BoundReport& bounds, const D
   d.rate_margin = options.rate_margin;
 
   const double L_computed = options.lipschitz == LipschitzKind::joint ? bounds.L_joint.value : bounds.L_paper;
+  if (!options.L_override && !std::isfinite(L_computed))
+    throw InputError(fmt::format("L_{} has no finite proven upper bound yet after the bound budget of {} s: raise "
+                                 "--bound-budget (0: no limit)",
+                                 to_string(options.lipschitz), options.certified_bounds.budget_seconds));
   d.L_used = options.L_override.value_or(L_computed);
   d.L_source = options.L_override ? "override" : to_string(options.lipschitz);
   if (options.L_override) {
@@ -141,6 +148,12 @@ Design design_from_bounds(const Model& model, const BoundReport& bounds, const D
   d.paper = paper_summary(d, options.gamma, options.theta);
   d.tight = tight_summary(d, options.gamma, options.theta);
 
+  // Both certificates use L alone: proven bounds, or the user's own L, make the certificate a proof.
+  if (!bounds.certified && !options.L_override) {
+    d.not_proven_reason = options.bound_method == BoundMethod::numeric
+                              ? "numeric bounds (--bounds numeric) are lower estimates of the suprema, not proven"
+                              : "numeric bounds: " + certification_unavailable(model) + ", so its suprema are estimates";
+  }
   const CertificateSummary& s = d.selected();
   if (!s.certified) {
     d.warnings.push_back(fmt::format("theta = {:.6g} certifies no exponential rate with the {} certificate (gamma = {:.6g})",
@@ -153,14 +166,23 @@ BoundReport design_bounds(const Model& model, const Eigen::VectorXd& V, const De
                           std::vector<std::string>& warnings) {
   BoundReport bounds = compute_bounds(model, V, options.bounds);
   if (options.bound_method == BoundMethod::certified) {
-    if (const auto certified = certify_bounds(model, bounds)) {
+    if (const auto certified = certify_bounds(model, bounds, options.certified_bounds)) {
       apply_certified_bounds(bounds, *certified);
     } else {
-      warnings.push_back("model '" + model.name +
-                         "' cannot be evaluated on intervals: numeric bounds used (lower estimates of the suprema)");
+      warnings.push_back(certification_unavailable(model) +
+                         ": numeric bounds used (lower estimates of the suprema); the design is not proven");
     }
   }
   return bounds;
+}
+
+std::string unmet_request(const Design& d, const DesignOptions& options) {
+  if (!options.gamma) return {};
+  if (!d.selected().certified) return fmt::format("the design does not certify gamma = {}", *options.gamma);
+  if (!d.proven() && options.bound_method == BoundMethod::certified)
+    return fmt::format("gamma = {} is not certified: {} (--bounds numeric accepts an estimate)", *options.gamma,
+                       d.not_proven_reason);
+  return {};
 }
 
 Design design_gains(const Model& model, const DesignOptions& options) {
@@ -173,6 +195,8 @@ Design design_gains(const Model& model, const DesignOptions& options) {
   std::vector<std::string> warnings;
   const BoundReport bounds = design_bounds(model, V, options, warnings);
   Design d = design_from_bounds(model, bounds, options);
+  d.notes = model.notes;
+  d.armature = model.armature;
   d.warnings.insert(d.warnings.begin(), warnings.begin(), warnings.end());
   d.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return d;

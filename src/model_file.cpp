@@ -60,9 +60,9 @@ class FieldReader {
 Model model_from_json(const nlohmann::json& j, const std::string& source) {
   if (!j.is_object()) throw InputError(source + ": a model file is a JSON object");
   const FieldReader read(j, source);
-  const std::set<std::string> known = {"name", "type", "pi", "g0", "friction", "input_matrix", "velocity_bounds"};
+  const std::set<std::string> known = {"name", "type", "pi", "g0", "friction", "input_matrix", "velocity_bounds", "armature"};
   for (const auto& [key, value] : j.items())
-    if (!known.count(key)) read.fail(key, "is not a model field (known: name, type, pi, g0, friction, input_matrix, velocity_bounds)");
+    if (!known.count(key)) read.fail(key, "is not a model field (known: name, type, pi, g0, friction, input_matrix, velocity_bounds, armature)");
   for (const char* required : {"name", "type", "pi"})
     if (!j.contains(required)) read.fail(required, "is missing");
   if (!j["name"].is_string() || j["name"].get<std::string>().empty()) read.fail("name", "must be a non-empty string");
@@ -78,6 +78,11 @@ Model model_from_json(const nlohmann::json& j, const std::string& source) {
   if (!(pi(0) * pi(1) > pi(2) * pi(2)))
     read.fail("pi", fmt::format("gives pi1 pi2 - pi3^2 = {:.6g} <= 0: M(q) is singular or indefinite at q2 = 0",
                                 pi(0) * pi(1) - pi(2) * pi(2)));
+  if (j.contains("armature")) {
+    const Eigen::VectorXd armature = read.vector("armature", 2);
+    if ((armature.array() < 0.0).any()) read.fail("armature", "must be non-negative (reflected rotor inertia, kg m^2)");
+    parameters.armature = {armature(0), armature(1)};
+  }
   const Eigen::Vector2d friction = j.contains("friction") ? Eigen::Vector2d(read.vector("friction", 2)) : Eigen::Vector2d::Zero();
   if ((friction.array() < 0.0).any()) read.fail("friction", "must be non-negative (viscous friction)");
   const Eigen::MatrixXd H = j.contains("input_matrix") ? read.matrix("input_matrix", 2) : Eigen::MatrixXd::Identity(2, 2);
@@ -89,7 +94,7 @@ Model model_from_json(const nlohmann::json& j, const std::string& source) {
   return make_planar_2r(j["name"].get<std::string>(), parameters, friction, H, V);
 }
 
-Model load_model_file(const std::string& path) {
+Model load_model_file(const std::string& path, const std::vector<double>& armature) {
   std::ifstream file(path);
   if (!file) throw InputError("cannot read model file '" + path + "'");
   nlohmann::json j;
@@ -97,6 +102,10 @@ Model load_model_file(const std::string& path) {
     file >> j;
   } catch (const nlohmann::json::parse_error& e) {
     throw InputError("model file '" + path + "' is not valid JSON: " + e.what());
+  }
+  if (!armature.empty()) {
+    if (armature.size() != 2) throw InputError(fmt::format("armature: the model has 2 joints, got {} values", armature.size()));
+    j["armature"] = armature;
   }
   return model_from_json(j, path);
 }

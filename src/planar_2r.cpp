@@ -34,13 +34,13 @@ void Planar2RDynamics::coriolis_bilinear(const Eigen::Ref<const Eigen::VectorXd>
   out(1) = x2.dot(tensors[1] * y2);
 }
 
-IntervalMatrix Planar2RDynamics::mass_matrix(const IntervalVector& q) const {
-  return planar_2r_mass_matrix(parameters_, q[1]);
+MatrixEnclosure Planar2RDynamics::mass_matrix(const std::vector<DualInterval>& q) const {
+  return enclosure_of(planar_2r_mass_matrix(parameters_, q[1]), q[1].directions);
 }
 
-std::vector<IntervalMatrix> Planar2RDynamics::coriolis_tensors(const IntervalVector& q) const {
+std::vector<MatrixEnclosure> Planar2RDynamics::coriolis_tensors(const std::vector<DualInterval>& q) const {
   const auto tensors = planar_2r_coriolis_tensors(parameters_, q[1]);
-  return {tensors[0], tensors[1]};
+  return {enclosure_of(tensors[0], q[1].directions), enclosure_of(tensors[1], q[1].directions)};
 }
 
 Model make_planar_2r(const std::string& name, const Planar2RParameters& parameters, const Eigen::Vector2d& friction,
@@ -52,6 +52,7 @@ Model make_planar_2r(const std::string& name, const Planar2RParameters& paramete
   model.friction = friction.asDiagonal();
   model.input_matrix = input_matrix;
   model.velocity_bounds = velocity_bounds;
+  model.armature = Eigen::Vector2d(parameters.armature[0], parameters.armature[1]);
   validate_model(model);
   return model;
 }

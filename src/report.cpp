@@ -123,7 +123,12 @@ nlohmann::json to_json(const Design& d) {
       {"comparison", {{"paper", to_json(d.paper)}, {"tight", to_json(d.tight)}}},
       {"warnings", d.warnings},
       {"wall_seconds", d.wall_seconds}};
-  if (d.bounds.certified) j["certified"] = certified_json(d.bounds);
+  // The verdict a tool reads first: proven, or an estimate and why.
+  j["certified"] = d.selected().certified && d.proven();
+  if (!d.proven()) j["certified_reason"] = d.not_proven_reason;
+  if (d.bounds.certified) j["bounds"]["brackets"] = certified_json(d.bounds);
+  j["notes"] = d.notes;
+  j["robot"]["armature"] = to_json(d.armature);
   if (d.shape.optimized) {
     j["shape"] = {{"objective", d.shape.objective},         {"alpha_global", d.shape.alpha_global},
                   {"alpha_polish", d.shape.alpha_polish},   {"objective_global", d.shape.objective_global},
@@ -135,8 +140,12 @@ nlohmann::json to_json(const Design& d) {
 std::string format_report(const Design& d) {
   std::ostringstream out;
   const auto& b = d.bounds;
-  out << fmt::format("obsgain design for '{}' ({} joints), velocity box |v_i| <= {}\n\n", d.robot_name, d.dof,
+  out << fmt::format("obsgain design for '{}' ({} joints), velocity box |v_i| <= {}\n", d.robot_name, d.dof,
                      format_vector(d.velocity_bounds));
+  if (d.armature.size() > 0 && !d.armature.isZero(0.0))
+    out << fmt::format("  armature (reflected rotor inertia on M's diagonal) [kg m^2]: {}\n", format_vector(d.armature));
+  for (const auto& note : d.notes) out << "  note: " << note << "\n";
+  out << "\n";
   out << fmt::format("Bounds ({}: NLopt DIRECT-L, then Ipopt polish{})\n", b.method(),
                      b.certified ? "; then interval branch and bound" : "");
   out << fmt::format("  {:<8} {:>14} {:>14} {:>14}   {}\n", "", "value", "NLopt", "Ipopt", "argmax");
@@ -145,7 +154,7 @@ std::string format_report(const Design& d) {
                        m->polish_value, where(*m));
   }
   if (b.certified) {
-    out << "  certified brackets (interval branch and bound; the design uses the upper ends):\n";
+    out << "  certified brackets [attained, proven upper] (interval branch and bound; the design uses the upper ends):\n";
     for (const auto& [name, k] : {std::pair{"M0", &b.M0_bracket}, {"B", &b.B_bracket}, {"L_joint", &b.L_joint_bracket}})
       out << fmt::format("  {:<8} [{:.10g}, {:.10g}]  gap {:.1e}, {} boxes, {:.2f} s\n", name, k->lower, k->upper,
                          (k->upper - k->lower) / k->upper, k->boxes, k->seconds);
@@ -177,8 +186,10 @@ std::string format_report(const Design& d) {
                      s.theta, d.alpha, d.beta);
   out << fmt::format("  gains k1 = {:.7g}, k2 = {:.7g}\n", s.k1, s.k2);
   if (s.certified) {
-    out << fmt::format("  certified: ||e(t)|| <= {:.6g} ||e(0)|| exp(-{:.6g} t) while |v_i(t)| <= V_i\n", s.k,
-                       s.envelope_gamma);
+    // Never the word "certified" on a certificate that rests on estimated bounds.
+    out << fmt::format("  {}: ||e(t)|| <= {:.6g} ||e(0)|| exp(-{:.6g} t) while |v_i(t)| <= V_i\n",
+                       d.proven() ? "certified" : "estimate (numeric bounds, not proven)", s.k, s.envelope_gamma);
+    if (!d.proven()) out << "  not proven: " << d.not_proven_reason << "\n";
   } else {
     out << "  NOT CERTIFIED\n";
   }
@@ -264,6 +275,11 @@ void write_trajectory_csv(const std::vector<TrajectorySample>& samples, std::ost
 
 nlohmann::json to_json(const VerificationReport& r) {
   nlohmann::json j = to_json(r.design);
+  // verify-bounds' report.json keeps the brackets under "certified" (its command-line contract); the design's
+  // verdict is then "design_certified".
+  j["design_certified"] = j["certified"];
+  j.erase("certified");
+  if (r.design.bounds.certified) j["certified"] = certified_json(r.design.bounds);
   j["monte_carlo"] = to_json(r.monte_carlo);
   return j;
 }
@@ -276,6 +292,9 @@ SavedDesign saved_design_from_json(const nlohmann::json& j) {
     saved.robot.base_link = robot.value("base_link", "");
     saved.robot.tip_link = robot.value("tip_link", "");
     saved.robot.actuated = robot.value("actuated", std::vector<int>{});
+    // The armature the design used, given again: a file whose transmissions changed still gets these values.
+    if (saved.robot.robot.ends_with(".urdf") || saved.robot.robot.ends_with(".json"))
+      saved.robot.armature = robot.value("armature", std::vector<double>{});
     const auto bounds = j.at("velocity_bounds").get<std::vector<double>>();
     saved.velocity_bounds = Eigen::Map<const Eigen::VectorXd>(bounds.data(), static_cast<Eigen::Index>(bounds.size()));
     const nlohmann::json& d = j.at("design");

@@ -17,8 +17,10 @@ Model load(const RobotSource& source) {
   if (robot.ends_with(".urdf")) return load_urdf(source);
   if (!source.base_link.empty() || !source.tip_link.empty() || !source.actuated.empty())
     throw InputError("--base-link, --tip-link and --actuated apply to URDF robots only, not to '" + robot + "'");
+  if (!source.armature.empty() && !robot.ends_with(".json"))
+    throw InputError("--armature applies to URDF robots and model files only, not to '" + robot + "'");
   if (robot == "pendubot") return pendubot();
-  if (robot.ends_with(".json")) return load_model_file(robot);
+  if (robot.ends_with(".json")) return load_model_file(robot, source.armature);
   std::string known;
   for (const auto& name : builtin_robots()) known += (known.empty() ? "" : ", ") + name;
   throw InputError("unknown robot '" + robot + "' (built in: " + known + "; or a model file *.json or *.urdf)");

@@ -1,94 +1,25 @@
 #include "obsgain/urdf_model.hpp"
 
+#include "obsgain/serial_chain.hpp"
+
 #include <console_bridge/console.h>
 #include <fmt/format.h>
-#include <kdl/chain.hpp>
-#include <kdl/chaindynparam.hpp>
-#include <kdl/tree.hpp>
-#include <kdl_parser/kdl_parser.hpp>
 #include <tinyxml2.h>
 #include <urdf_parser/urdf_parser.h>
 
-#include <atomic>
+#include <Eigen/Geometry>
+
 #include <fstream>
+#include <functional>
+#include <map>
+#include <numbers>
 #include <memory>
+#include <set>
 #include <sstream>
-#include <unordered_map>
 
 namespace obsgain {
 
 namespace {
-
-// KDL's solvers keep scratch state and so are not re-entrant: each thread gets its own solver and
-// argument arrays per chain, built on first use (Monte Carlo evaluates one model on all cores).
-struct KdlWorkspace {
-  KDL::ChainDynParam solver;
-  KDL::JntArray q, v, out;
-  KDL::JntSpaceInertiaMatrix M;
-  KdlWorkspace(const KDL::Chain& chain, unsigned n)
-      : solver(chain, KDL::Vector(0.0, 0.0, -9.81)), q(n), v(n), out(n), M(n) {}
-};
-
-class KdlDynamics final : public Dynamics {
- public:
-  explicit KdlDynamics(KDL::Chain chain) : chain_(std::move(chain)), n_(static_cast<int>(chain_.getNrOfJoints())) {}
-
-  int dof() const override { return n_; }
-
-  void mass_matrix(const Eigen::Ref<const Eigen::VectorXd>& q, Eigen::Ref<Eigen::MatrixXd> M) const override {
-    KdlWorkspace& w = workspace();
-    w.q.data = q;
-    check(w.solver.JntToMass(w.q, w.M), "JntToMass");
-    M = w.M.data;
-  }
-
-  void coriolis(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Ref<const Eigen::VectorXd>& v,
-                Eigen::Ref<Eigen::VectorXd> A) const override {
-    KdlWorkspace& w = workspace();
-    w.q.data = q;
-    w.v.data = v;
-    check(w.solver.JntToCoriolis(w.q, w.v, w.out), "JntToCoriolis");
-    A = w.out.data;
-  }
-
-  void gravity(const Eigen::Ref<const Eigen::VectorXd>& q, Eigen::Ref<Eigen::VectorXd> g) const override {
-    KdlWorkspace& w = workspace();
-    w.q.data = q;
-    check(w.solver.JntToGravity(w.q, w.out), "JntToGravity");
-    g = w.out.data;
-  }
-
-  // Rotating or translating the whole chain about its first joint moves no body relative to another, so the
-  // kinetic energy, hence M and C, do not depend on q1.
-  std::vector<int> configuration_joints() const override {
-    std::vector<int> joints;
-    for (int i = 1; i < n_; ++i) joints.push_back(i);
-    return joints;
-  }
-
- private:
-  static void check(int status, const char* call) {
-    if (status < 0) throw std::runtime_error(fmt::format("KDL {} failed with status {}", call, status));
-  }
-
-  KdlWorkspace& workspace() const {
-    thread_local std::unordered_map<std::uint64_t, std::unique_ptr<KdlWorkspace>> workspaces;
-    auto& slot = workspaces[id_];
-    if (!slot) slot = std::make_unique<KdlWorkspace>(chain_, static_cast<unsigned>(n_));
-    return *slot;
-  }
-
-  // Workspaces are keyed by a never-reused id, not by address: a later model at the same address must not
-  // find this chain's solver.
-  static std::uint64_t next_id() {
-    static std::atomic<std::uint64_t> counter{0};
-    return ++counter;
-  }
-
-  KDL::Chain chain_;  // ChainDynParam keeps a reference to it: never moved after construction
-  int n_;
-  std::uint64_t id_ = next_id();
-};
 
 // urdfdom reports why it rejects a file through console_bridge; keep its first error for our one-line message
 // instead of letting it print.
@@ -122,31 +53,6 @@ std::string read_file(const std::string& path) {
   return text.str();
 }
 
-// Whether `tip` is `base` or lies below it (a chain must hang from its base, not climb the tree).
-bool descends_from(const KDL::Tree& tree, const std::string& tip, const std::string& base) {
-  auto it = tree.getSegments().find(tip);
-  while (it != tree.getSegments().end()) {
-    if (it->first == base) return true;
-    if (it == tree.getRootSegment()) return false;
-    it = GetTreeElementParent(it->second);
-  }
-  return false;
-}
-
-std::string default_tip(const KDL::Tree& tree, const std::string& base, const std::string& source) {
-  std::vector<std::string> leaves;
-  for (const auto& [name, element] : tree.getSegments()) {
-    if (GetTreeElementChildren(element).empty() && descends_from(tree, name, base)) leaves.push_back(name);
-  }
-  if (leaves.size() != 1) {
-    std::string list;
-    for (const auto& leaf : leaves) list += (list.empty() ? "" : ", ") + leaf;
-    throw InputError(fmt::format("{}: the tree below '{}' has {} leaves ({}): choose one with --tip-link", source,
-                                 base, leaves.size(), list));
-  }
-  return leaves.front();
-}
-
 JointDomain joint_domain(const urdf::Joint& joint, const std::string& source) {
   JointDomain domain;
   switch (joint.type) {
@@ -160,10 +66,159 @@ JointDomain joint_domain(const urdf::Joint& joint, const std::string& source) {
         throw InputError(fmt::format("{}: joint '{}' needs <limit lower upper> with lower < upper", source, joint.name));
       domain.lower = joint.limits->lower;
       domain.upper = joint.limits->upper;
+      // M and C see a revolute joint through sin/cos only: a range of a full turn or more is the whole circle.
+      if (domain.type == JointType::revolute && domain.upper - domain.lower >= 2.0 * std::numbers::pi) return JointDomain{};
       return domain;
     default:
       throw InputError(fmt::format("{}: joint '{}' is neither revolute, continuous nor prismatic", source, joint.name));
   }
+}
+
+
+Eigen::Isometry3d to_isometry(const urdf::Pose& pose) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = Eigen::Quaterniond(pose.rotation.w, pose.rotation.x, pose.rotation.y, pose.rotation.z).normalized().toRotationMatrix();
+  T.translation() = Eigen::Vector3d(pose.position.x, pose.position.y, pose.position.z);
+  return T;
+}
+
+Eigen::Vector3d to_vector(const urdf::Vector3& v) { return {v.x, v.y, v.z}; }
+
+bool movable(const urdf::Joint& joint) {
+  return joint.type == urdf::Joint::REVOLUTE || joint.type == urdf::Joint::CONTINUOUS || joint.type == urdf::Joint::PRISMATIC;
+}
+
+// A chain joint moves freely; a mimic joint follows another and is locked with the side branches.
+bool chain_candidate(const urdf::Joint& joint) { return movable(joint) && !joint.mimic; }
+
+// The link's own inertia as a RigidBody in the link's frame.
+RigidBody link_body(const urdf::Link& link) {
+  RigidBody body;
+  if (!link.inertial) return body;
+  const urdf::Inertial& in = *link.inertial;
+  const Eigen::Isometry3d T = to_isometry(in.origin);
+  Eigen::Matrix3d I;
+  I << in.ixx, in.ixy, in.ixz, in.ixy, in.iyy, in.iyz, in.ixz, in.iyz, in.izz;
+  body.mass = in.mass;
+  body.com = T.translation();
+  body.inertia = T.linear() * I * T.linear().transpose();
+  return body;
+}
+
+// How far along its axis a locked joint sits: the middle of its range (0 for continuous joints), or what its
+// <mimic> says of the joint it follows.
+double locked_position(const urdf::ModelInterface& robot, const urdf::Joint& joint) {
+  if (joint.mimic) {
+    const urdf::JointConstSharedPtr master = robot.getJoint(joint.mimic->joint_name);
+    const double master_position = master && master.get() != &joint && !master->mimic ? locked_position(robot, *master) : 0.0;
+    return joint.mimic->multiplier * master_position + joint.mimic->offset;
+  }
+  if (joint.type == urdf::Joint::CONTINUOUS || !joint.limits) return 0.0;
+  return 0.5 * (joint.limits->lower + joint.limits->upper);
+}
+
+// The child link's frame in the parent link's frame, the joint at `position`.
+Eigen::Isometry3d joint_transform(const urdf::Joint& joint, double position) {
+  Eigen::Isometry3d T = to_isometry(joint.parent_to_joint_origin_transform);
+  const Eigen::Vector3d axis = to_vector(joint.axis).normalized();
+  if (joint.type == urdf::Joint::REVOLUTE || joint.type == urdf::Joint::CONTINUOUS)
+    T.rotate(Eigen::AngleAxisd(position, axis));
+  else if (joint.type == urdf::Joint::PRISMATIC)
+    T.translate(position * axis);
+  return T;
+}
+
+// Counts the movable joints (mimic ones too: a mimic finger is still a finger) on the longest path below
+// (and including) `joint`.
+int movable_depth(const urdf::Joint& joint, const urdf::ModelInterface& robot) {
+  int deepest = 0;
+  const urdf::LinkConstSharedPtr child = robot.getLink(joint.child_link_name);
+  for (const auto& next : child->child_joints) deepest = std::max(deepest, movable_depth(*next, robot));
+  return deepest + (movable(joint) ? 1 : 0);
+}
+
+std::vector<std::string> leaves_below(const urdf::Link& link) {
+  if (link.child_links.empty()) return {link.name};
+  std::vector<std::string> leaves;
+  for (const auto& child : link.child_links) {
+    const auto below = leaves_below(*child);
+    leaves.insert(leaves.end(), below.begin(), below.end());
+  }
+  return leaves;
+}
+
+// Fingers have at most this many joints in a row; longer movable branches are arms, and the user must choose.
+constexpr int kGripperDepth = 3;
+
+// The default chain: from the base, follow the only child branch that holds movable joints; stop at a link
+// with none (the arm's end, whatever fixed frames hang below) or with several short ones (a gripper).
+std::vector<urdf::JointConstSharedPtr> default_path(const urdf::ModelInterface& robot, const urdf::Link& base,
+                                                   const std::string& source, std::vector<std::string>& notes) {
+  std::vector<urdf::JointConstSharedPtr> path;
+  const urdf::Link* link = &base;
+  while (true) {
+    std::vector<urdf::JointConstSharedPtr> branches;
+    for (const auto& joint : link->child_joints)
+      if (movable_depth(*joint, robot) > 0) branches.push_back(joint);
+    if (branches.empty()) break;
+    if (branches.size() > 1) {
+      bool gripper = true;
+      std::string names, tips;
+      for (const auto& joint : branches) {
+        gripper = gripper && movable_depth(*joint, robot) <= kGripperDepth;
+        names += (names.empty() ? "'" : ", '") + joint->name + "'";
+        for (const auto& leaf : leaves_below(*robot.getLink(joint->child_link_name))) tips += (tips.empty() ? "" : ", ") + leaf;
+      }
+      if (!gripper)
+        throw InputError(fmt::format("{}: the tree branches at '{}' into several arms ({}): choose one with --tip-link "
+                                     "(candidates: {})",
+                                     source, link->name, names, tips));
+      notes.push_back(fmt::format("the chain ends at '{}': its movable branches {} are taken as a gripper, locked and "
+                                  "lumped into it (--tip-link chooses another chain)",
+                                  link->name, names));
+      break;
+    }
+    path.push_back(branches.front());
+    link = robot.getLink(branches.front()->child_link_name).get();
+  }
+  return path;
+}
+
+std::vector<urdf::JointConstSharedPtr> path_to_tip(const urdf::ModelInterface& robot, const std::string& base,
+                                                   const std::string& tip, const std::string& source) {
+  std::vector<urdf::JointConstSharedPtr> path;
+  urdf::LinkConstSharedPtr link = robot.getLink(tip);
+  while (link->name != base) {
+    const urdf::JointConstSharedPtr joint = link->parent_joint;
+    if (!joint) throw InputError(fmt::format("{}: there is no chain from '{}' down to '{}'", source, base, tip));
+    path.insert(path.begin(), joint);
+    link = robot.getLink(joint->parent_link_name);
+  }
+  return path;
+}
+
+// Reflected rotor inertia from Drake-style transmissions: gear_ratio² × rotor_inertia, per joint name.
+std::map<std::string, double> transmission_armature(const tinyxml2::XMLDocument& document, const std::string& source) {
+  std::map<std::string, double> armature;
+  const tinyxml2::XMLElement* robot = document.FirstChildElement("robot");
+  for (const auto* t = robot ? robot->FirstChildElement("transmission") : nullptr; t; t = t->NextSiblingElement("transmission")) {
+    const auto* joint = t->FirstChildElement("joint");
+    const auto* actuator = t->FirstChildElement("actuator");
+    if (!joint || !actuator || !joint->Attribute("name")) continue;
+    const auto value = [&](const char* tag, double fallback) {
+      const auto* element = actuator->FirstChildElement(tag);
+      if (!element) return fallback;
+      double x = 0.0;
+      if (element->QueryDoubleAttribute("value", &x) != tinyxml2::XML_SUCCESS || !std::isfinite(x) || x < 0.0)
+        throw InputError(fmt::format("{}: transmission of joint '{}': <{} value> must be a number >= 0", source,
+                                     joint->Attribute("name"), tag));
+      return x;
+    };
+    const double rotor = value("drake:rotor_inertia", 0.0);
+    const double gear = value("drake:gear_ratio", 1.0);
+    if (rotor > 0.0) armature[joint->Attribute("name")] = gear * gear * rotor;
+  }
+  return armature;
 }
 
 // M(q) singular means some joint moves no inertia; name the joint that the null direction drives most.
@@ -202,45 +257,105 @@ Model load_urdf(const RobotSource& options) {
     robot = urdf::parseURDF(xml);
     if (!robot) throw InputError(fmt::format("{}: not a valid URDF: {}", source, error.message));
   }
-  // The root link is the fixed world: its inertia enters no dynamics, and kdl_parser would warn about it
-  // through ROS logging.
-  if (robot->root_link_) robot->root_link_->inertial.reset();
-  KDL::Tree tree;
-  if (!kdl_parser::treeFromUrdfModel(*robot, tree)) throw InputError(fmt::format("{}: kdl_parser rejected it", source));
-
-  const std::string base = options.base_link.empty() ? tree.getRootSegment()->first : options.base_link;
+  const std::string base = options.base_link.empty() ? robot->getRoot()->name : options.base_link;
   for (const auto* link : {&base, &options.tip_link}) {
-    if (!link->empty() && !tree.getSegments().count(*link))
+    if (!link->empty() && !robot->getLink(*link))
       throw InputError(fmt::format("{}: there is no link '{}'", source, *link));
   }
-  const std::string tip = options.tip_link.empty() ? default_tip(tree, base, source) : options.tip_link;
-  KDL::Chain chain;
-  if (tip == base || !descends_from(tree, tip, base) || !tree.getChain(base, tip, chain))
-    throw InputError(fmt::format("{}: there is no chain from '{}' down to '{}'", source, base, tip));
-  const int n = static_cast<int>(chain.getNrOfJoints());
-  if (n == 0) throw InputError(fmt::format("{}: the chain from '{}' to '{}' has no moving joint", source, base, tip));
-
   Model model;
   model.name = robot->getName();
+  const auto chain_path = options.tip_link.empty() ? default_path(*robot, *robot->getLink(base), source, model.notes)
+                                                   : path_to_tip(*robot, base, options.tip_link, source);
+
+  // Walk the path: movable joints start a new body; everything rigidly attached (fixed joints, locked
+  // mimic joints, side branches locked at their stated positions) is lumped into the body it hangs from.
+  // Whatever is attached to the base itself is the fixed world.
+  SerialChain chain;
+  std::set<std::string> on_path;
+  for (const auto& joint : chain_path) on_path.insert(joint->name);
+  Eigen::Isometry3d placement = Eigen::Isometry3d::Identity();  // current link in the current body's frame
+  std::vector<std::string> locked;
+  std::function<void(const urdf::Link&, const Eigen::Isometry3d&)> lump_subtree = [&](const urdf::Link& link,
+                                                                                        const Eigen::Isometry3d& T) {
+    if (!chain.bodies.empty()) chain.bodies.back() = lump(chain.bodies.back(), link_body(link), T.linear(), T.translation());
+    for (const auto& joint : link.child_joints) {
+      if (on_path.count(joint->name)) continue;
+      const double position = movable(*joint) ? locked_position(*robot, *joint) : 0.0;
+      if (movable(*joint) && !chain.bodies.empty()) locked.push_back(fmt::format("'{}' at {:.4g}", joint->name, position));
+      lump_subtree(*robot->getLink(joint->child_link_name), T * joint_transform(*joint, position));
+    }
+  };
+  lump_subtree(*robot->getLink(base), placement);
+  bool every_velocity_limit = true;
+  std::vector<std::string> joint_names;
+  for (const auto& joint : chain_path) {
+    if (chain_candidate(*joint)) {
+      ChainJoint c;
+      c.name = joint->name;
+      c.type = joint->type == urdf::Joint::PRISMATIC ? JointType::prismatic : JointType::revolute;
+      const Eigen::Isometry3d origin = placement * to_isometry(joint->parent_to_joint_origin_transform);
+      c.rotation = origin.linear();
+      c.translation = origin.translation();
+      const Eigen::Vector3d axis = to_vector(joint->axis);
+      if (!(axis.norm() > 0.0)) throw InputError(fmt::format("{}: joint '{}' has a zero <axis>", source, joint->name));
+      c.axis = axis.normalized();
+      chain.joints.push_back(c);
+      chain.bodies.emplace_back();
+      joint_names.push_back(joint->name);
+      model.joints.push_back(joint_domain(*joint, source));
+      const double velocity = joint->limits ? joint->limits->velocity : 0.0;
+      every_velocity_limit = every_velocity_limit && velocity > 0.0;
+      placement = Eigen::Isometry3d::Identity();
+    } else {
+      const double position = movable(*joint) ? locked_position(*robot, *joint) : 0.0;
+      if (movable(*joint)) locked.push_back(fmt::format("'{}' at {:.4g}", joint->name, position));
+      placement = placement * joint_transform(*joint, position);
+    }
+    lump_subtree(*robot->getLink(joint->child_link_name), placement);
+  }
+  const int n = chain.dof();
+  if (n == 0) throw InputError(fmt::format("{}: the chain below '{}' has no moving joint", source, base));
+  if (!locked.empty()) {
+    std::string list;
+    for (const auto& item : locked) list += (list.empty() ? "" : ", ") + item;
+    model.notes.push_back(fmt::format("locked and lumped into the chain's bodies: {} (middle of range, or as <mimic> says)", list));
+  }
+  model.notes.insert(model.notes.begin(),
+                     fmt::format("chain: {} joints from '{}' to '{}'", n, base,
+                                 chain_path.empty() ? base : chain_path.back()->child_link_name));
+
   model.friction = Eigen::MatrixXd::Zero(n, n);
   model.velocity_bounds.resize(n);
-  std::vector<std::string> joint_names;
-  bool every_velocity_limit = true;
-  for (const KDL::Segment& segment : chain.segments) {
-    if (segment.getJoint().getType() == KDL::Joint::None) continue;
-    const urdf::JointConstSharedPtr joint = robot->getJoint(segment.getJoint().getName());
-    const auto i = static_cast<Eigen::Index>(joint_names.size());
-    joint_names.push_back(joint->name);
-    model.joints.push_back(joint_domain(*joint, source));
-    const double velocity = joint->limits ? joint->limits->velocity : 0.0;
-    every_velocity_limit = every_velocity_limit && velocity > 0.0;
-    model.velocity_bounds(i) = velocity;
+  for (int i = 0; i < n; ++i) {
+    const urdf::JointConstSharedPtr joint = robot->getJoint(joint_names[i]);
+    model.velocity_bounds(i) = joint->limits ? joint->limits->velocity : 0.0;
     const double damping = joint->dynamics ? joint->dynamics->damping : 0.0;
     if (!(damping >= 0.0) || !std::isfinite(damping))
       throw InputError(fmt::format("{}: joint '{}' has damping {}: must be >= 0", source, joint->name, damping));
     model.friction(i, i) = damping;
   }
   if (!every_velocity_limit) model.velocity_bounds.resize(0);  // then --vmax is required
+
+  chain.armature = Eigen::VectorXd::Zero(n);
+  if (options.armature.empty()) {
+    const auto from_file = transmission_armature(document, source);
+    std::string list;
+    for (int i = 0; i < n; ++i) {
+      if (const auto it = from_file.find(joint_names[i]); it != from_file.end()) {
+        chain.armature(i) = it->second;
+        list += (list.empty() ? "" : ", ") + joint_names[i];
+      }
+    }
+    if (!list.empty())
+      model.notes.push_back(fmt::format("armature of {} from the file's transmissions (drake:gear_ratio² × "
+                                        "drake:rotor_inertia); --armature overrides",
+                                        list));
+  } else {
+    if (static_cast<int>(options.armature.size()) != n)
+      throw InputError(fmt::format("armature: the chain has {} joints, got {} values", n, options.armature.size()));
+    for (int i = 0; i < n; ++i) chain.armature(i) = options.armature[i];
+  }
+  model.armature = chain.armature;
 
   if (options.actuated.empty()) {
     model.input_matrix = Eigen::MatrixXd::Identity(n, n);
@@ -258,7 +373,8 @@ Model load_urdf(const RobotSource& options) {
     for (std::size_t c = 0; c < columns.size(); ++c) model.input_matrix(columns[c], static_cast<Eigen::Index>(c)) = 1.0;
   }
 
-  model.dynamics = std::make_shared<const KdlDynamics>(std::move(chain));
+  validate_chain(chain, source);
+  model.dynamics = make_chain_dynamics(std::move(chain));
   validate_model(model);
   check_inertia(model, joint_names, source);
   return model;

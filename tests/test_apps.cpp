@@ -86,12 +86,21 @@ TEST(DesignGainsApp, JsonOnStdoutAndTableOtherwise) {
   const nlohmann::json design = nlohmann::json::parse(j.out);
   EXPECT_NEAR(design["bounds"]["L_joint"].get<double>(), 43.3475, 1e-5 * 43.3475);
   EXPECT_EQ(design["bounds"]["method"], "certified");
-  EXPECT_LE(design["certified"]["L_joint"]["lower"].get<double>(), design["bounds"]["L_joint"].get<double>());
-  EXPECT_EQ(design["certified"]["L_joint"]["upper"].get<double>(), design["bounds"]["L_joint"].get<double>());
+  EXPECT_TRUE(design["certified"].get<bool>());
+  EXPECT_LE(design["bounds"]["brackets"]["L_joint"]["lower"].get<double>(), design["bounds"]["L_joint"].get<double>());
+  EXPECT_EQ(design["bounds"]["brackets"]["L_joint"]["upper"].get<double>(), design["bounds"]["L_joint"].get<double>());
+  const AppRun c = run("design-gains", "--robot pendubot --gamma 1.27");
+  EXPECT_NE(c.out.find("  certified: ||e(t)||"), std::string::npos) << c.out;
+  // Numeric bounds by request: an estimate, never called certified (exit 0: the user asked for it).
   const AppRun t = run("design-gains", "--robot pendubot --gamma 1.27 --bounds numeric");
   ASSERT_EQ(t.exit_code, 0) << t.err;
   EXPECT_NE(t.out.find("theta* (smallest gain for the target)"), std::string::npos);
-  EXPECT_NE(t.out.find("certified: ||e(t)||"), std::string::npos);
+  EXPECT_EQ(t.out.find("certified: ||e(t)||"), std::string::npos) << t.out;
+  EXPECT_NE(t.out.find("estimate (numeric bounds, not proven): ||e(t)||"), std::string::npos) << t.out;
+  const nlohmann::json numeric =
+      nlohmann::json::parse(run("design-gains", "--robot pendubot --gamma 1.27 --bounds numeric --json").out);
+  EXPECT_FALSE(numeric["certified"].get<bool>());
+  EXPECT_NE(numeric["certified_reason"].get<std::string>().find("--bounds numeric"), std::string::npos);
 }
 
 TEST(DesignGainsApp, JsonToFile) {
@@ -184,6 +193,7 @@ TEST(VerifyBoundsApp, WritesTheReportWithCertifiedBrackets) {
     EXPECT_GE(upper, reference * (1 - 1e-6)) << name;
     EXPECT_LE(upper - lower, 1e-6 * upper) << name;
   }
+  EXPECT_TRUE(report["design_certified"].get<bool>());
   EXPECT_EQ(report["monte_carlo"]["trials"], 20);
   EXPECT_EQ(report["monte_carlo"]["envelope_violations"], 0);
   EXPECT_TRUE(report["comparison"].contains("paper"));

@@ -1,6 +1,8 @@
 #include "obsgain/certified_bounds.hpp"
 #include "obsgain/design.hpp"
 #include "obsgain/planar_2r.hpp"
+#include "obsgain/report.hpp"
+#include "obsgain/robots.hpp"
 
 #include <gtest/gtest.h>
 
@@ -21,7 +23,7 @@ const obsgain::CertifiedBounds& pendubot_brackets() {
   return brackets;
 }
 
-void expect_brackets(const obsgain::Bracket& b, double reference) {
+void expect_brackets(const obsgain::BoundBracket& b, double reference) {
   // The design notes' values are rounded to 7 digits: the bracket contains them to that rounding.
   EXPECT_LE(b.lower, reference * (1 + 1e-6));
   EXPECT_GE(b.upper, reference * (1 - 1e-6));
@@ -106,7 +108,7 @@ class DoubleOnlyDynamics final : public obsgain::Dynamics {
   std::shared_ptr<const obsgain::Dynamics> inner_;
 };
 
-TEST(CertifiedDesign, FallsBackToNumericWithAWarning) {
+TEST(CertifiedDesign, FallsBackToNumericWithAWarningAndIsNeverCalledCertified) {
   obsgain::Model model = obsgain::pendubot();
   model.dynamics = std::make_shared<DoubleOnlyDynamics>(model.dynamics);
   EXPECT_FALSE(obsgain::certify_bounds(model, obsgain::compute_bounds(model, model.velocity_bounds)).has_value());
@@ -118,6 +120,94 @@ TEST(CertifiedDesign, FallsBackToNumericWithAWarning) {
   ASSERT_FALSE(design.warnings.empty());
   EXPECT_NE(design.warnings.front().find("cannot be evaluated on intervals"), std::string::npos);
   EXPECT_NEAR(design.bounds.L_joint.value, 43.3475, 1e-5 * 43.3475);
+  // The certificate holds on the estimated L, but it is not a proof: never labelled certified.
+  EXPECT_TRUE(design.selected().certified);
+  EXPECT_FALSE(design.proven());
+  EXPECT_NE(design.not_proven_reason.find("estimates"), std::string::npos);
+  EXPECT_NE(obsgain::unmet_request(design, options).find("--bounds numeric"), std::string::npos);
+  const std::string table = obsgain::format_report(design);
+  EXPECT_EQ(table.find("certified:"), std::string::npos) << table;
+  EXPECT_NE(table.find("estimate (numeric bounds, not proven)"), std::string::npos);
+  const nlohmann::json j = obsgain::to_json(design);
+  EXPECT_FALSE(j["certified"].get<bool>());
+  EXPECT_TRUE(j.contains("certified_reason"));
+}
+
+}  // namespace
+
+namespace {
+
+const std::string examples = OBSGAIN_EXAMPLES_DIR;
+
+obsgain::CertifiedBounds certify_with(const obsgain::Model& model, double budget_seconds, double relative_gap = 1e-6) {
+  obsgain::CertifiedOptions options;
+  options.budget_seconds = budget_seconds;
+  options.relative_gap = relative_gap;
+  return *obsgain::certify_bounds(model, obsgain::compute_bounds(model, model.velocity_bounds), options);
+}
+
+// The largest values on a grid over (q2, q3) with every vertex (and pattern): attained values, so never above
+// a proven upper end.
+struct GridMaxima {
+  double M0 = 0.0, B = 0.0, L = 0.0;
+};
+
+GridMaxima arm3_grid(const obsgain::Model& arm) {
+  GridMaxima g;
+  const int steps = 20;
+  for (int a = 0; a <= steps; ++a)
+    for (int b = 0; b <= steps; ++b) {
+      const Eigen::Vector3d q(0.0, -2.0 + 4.0 * a / steps, -2.6 + 5.2 * b / steps);
+      g.M0 = std::max(g.M0, obsgain::inverse_inertia_norm(arm, q));
+      g.B = std::max(g.B, obsgain::max_coriolis_jacobian_norm(arm, q, arm.velocity_bounds));
+      g.L = std::max(g.L, obsgain::max_joint_lipschitz_norm(arm, q, arm.velocity_bounds));
+    }
+  return g;
+}
+
+TEST(ArmBrackets, ThreeJointArmBracketsContainTheGridAndTightenWithTheBudget) {
+  const obsgain::Model arm = obsgain::load_robot({examples + "/arm3.urdf"});
+  const GridMaxima grid = arm3_grid(arm);
+  const obsgain::CertifiedBounds tiny = certify_with(arm, 0.3);
+  const obsgain::CertifiedBounds converged = certify_with(arm, 0.0, 1e-3);  // no budget: until the gap
+  for (const auto* brackets : {&tiny, &converged}) {
+    EXPECT_GE(brackets->M0.upper, grid.M0);
+    EXPECT_GE(brackets->B.upper, grid.B);
+    EXPECT_GE(brackets->L_joint.upper, grid.L);
+    EXPECT_LE(brackets->L_joint.lower, brackets->L_joint.upper);
+  }
+  // The budget is honoured (a fraction of a second, not the seconds the gap takes; generous for a loaded or
+  // sanitised build) and yields a wider but sound bracket; without a budget every gap is reached.
+  EXPECT_LT(tiny.M0.seconds + tiny.B.seconds + tiny.L_joint.seconds, 3.0);
+  EXPECT_GE(tiny.L_joint.upper, converged.L_joint.upper);
+  EXPECT_GT(tiny.L_joint.upper - tiny.L_joint.lower, converged.L_joint.upper - converged.L_joint.lower);
+  for (const auto* bracket : {&converged.M0, &converged.B, &converged.L_joint})
+    EXPECT_LE(bracket->upper - bracket->lower, 1e-3 * bracket->upper);
+  EXPECT_GE(converged.L_joint.lower, grid.L * (1 - 1e-12));
+}
+
+// Six joints: random configurations and random points of the velocity box never exceed the proven upper ends,
+// however short the budget.
+TEST(ArmBrackets, SixJointArmBracketsAreNeverBelowSampledValues) {
+  const obsgain::Model arm = obsgain::load_robot({examples + "/arm6.urdf"});
+  const obsgain::CertifiedBounds brackets = certify_with(arm, 3.0);
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> angle(-3.14159, 3.14159), unit(-1.0, 1.0), pattern(0.0, 1.0);
+  const obsgain::BoundReport numeric = obsgain::compute_bounds(arm, arm.velocity_bounds);
+  EXPECT_GE(brackets.M0.upper, numeric.M0.value);
+  EXPECT_GE(brackets.B.upper, numeric.B.value);
+  EXPECT_GE(brackets.L_joint.upper, numeric.L_joint.value);
+  for (int i = 0; i < 300; ++i) {
+    Eigen::VectorXd q(6), v(6), D(6);
+    for (int k = 0; k < 6; ++k) {
+      q(k) = angle(rng);
+      v(k) = unit(rng) * arm.velocity_bounds(k);
+      D(k) = pattern(rng);
+    }
+    EXPECT_LE(obsgain::inverse_inertia_norm(arm, q), brackets.M0.upper);
+    EXPECT_LE(obsgain::coriolis_jacobian_norm(arm, q, v), brackets.B.upper);
+    EXPECT_LE(obsgain::joint_lipschitz_norm(arm, q, v, D), brackets.L_joint.upper);
+  }
 }
 
 }  // namespace

@@ -59,6 +59,12 @@ double coriolis_jacobian_norm(const Model& model, const Eigen::VectorXd& q, cons
 double joint_lipschitz_norm(const Model& model, const Eigen::VectorXd& q, const Eigen::VectorXd& w,
                             const Eigen::VectorXd& saturation_pattern);  // ||M⁻¹(J D + F)||
 
+// The objectives at one configuration, maximised over their discrete choices (what the searches and the
+// certified branch and bound's attained values evaluate): max over vertices w of ||J(q, w)||, and max over
+// vertices w and saturation patterns D of ||M⁻¹(J D + F)||.
+double max_coriolis_jacobian_norm(const Model& model, const Eigen::VectorXd& q, const Eigen::VectorXd& velocity_bounds);
+double max_joint_lipschitz_norm(const Model& model, const Eigen::VectorXd& q, const Eigen::VectorXd& velocity_bounds);
+
 // The 2^n vertices of the box with half-widths V, one per column.
 Eigen::MatrixXd box_vertices(const Eigen::VectorXd& velocity_bounds);
 

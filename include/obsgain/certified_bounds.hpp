@@ -1,43 +1,71 @@
-// Certified brackets [lower, upper] for M0, B and L_joint: interval branch and bound over the joint
-// domain, with the model's dynamics evaluated on intervals (models that implement IntervalDynamics).
-// `lower` is a value attained at a point; `upper` provably bounds the supremum (outward rounding
-// throughout, exact vertex reduction in v and D).
+// Certified brackets [lower, upper] for M0, B and L_joint: best-first interval branch and bound over the
+// searched joints, on all cores, with the model's dynamics evaluated on intervals and interval derivatives.
+// `lower` is a value attained at a point; `upper` provably bounds the supremum (outward rounding throughout,
+// exact vertex reduction in v and D, centred forms whose excess shrinks quadratically with the box).
 #pragma once
 
 #include "obsgain/bounds.hpp"
+#include "obsgain/dual.hpp"
 #include "obsgain/interval.hpp"
 
-#include <array>
 #include <optional>
 #include <vector>
 
 namespace obsgain {
 
 using IntervalMatrix = Eigen::Matrix<Interval, Eigen::Dynamic, Eigen::Dynamic>;
-using IntervalVector = std::vector<Interval>;
+using DualInterval = Dual<Interval>;
 
-// A model whose M(q) and N_i(q) can be enclosed over a box of configurations.
+// A matrix function of q over a box: an enclosure of its values and of its partial derivatives along the
+// searched joints (the directions of the DualInterval arguments).
+struct MatrixEnclosure {
+  IntervalMatrix value;
+  std::vector<IntervalMatrix> derivative;
+};
+
+// Splits an Eigen matrix of duals into value and derivative enclosures.
+template <class Matrix>
+MatrixEnclosure enclosure_of(const Matrix& X, int directions) {
+  MatrixEnclosure e;
+  e.value.resize(X.rows(), X.cols());
+  e.derivative.assign(static_cast<std::size_t>(directions), IntervalMatrix(X.rows(), X.cols()));
+  for (Eigen::Index i = 0; i < X.rows(); ++i)
+    for (Eigen::Index j = 0; j < X.cols(); ++j) {
+      e.value(i, j) = X(i, j).value;
+      for (int k = 0; k < directions; ++k) e.derivative[k](i, j) = X(i, j).derivative[k];
+    }
+  return e;
+}
+
+// A model whose M(q) and N_i(q) can be enclosed over a box of configurations. q holds every joint; the
+// searched joints carry derivative directions (DualInterval::variable), the others none.
 class IntervalDynamics {
  public:
   virtual ~IntervalDynamics() = default;
-  virtual IntervalMatrix mass_matrix(const IntervalVector& q) const = 0;
-  virtual std::vector<IntervalMatrix> coriolis_tensors(const IntervalVector& q) const = 0;
+  virtual MatrixEnclosure mass_matrix(const std::vector<DualInterval>& q) const = 0;
+  virtual std::vector<MatrixEnclosure> coriolis_tensors(const std::vector<DualInterval>& q) const = 0;
+  // A proven lower bound of λmin(M(q)) for every q: M is the rigid bodies' kinetic-energy matrix, positive
+  // semidefinite for every q (a sum of Jᵀ m J + Jᵀ I J, m >= 0, I ⪰ 0), plus diag(armature), so
+  // λmin(M) >= min_i armature_i. It makes M⁻¹ bounded on boxes too wide for interval arithmetic to see it.
+  virtual double inertia_floor() const { return 0.0; }
 };
 
 struct CertifiedOptions {
-  double relative_gap = 1e-6;  // stop when upper - lower <= relative_gap * upper
-  int max_boxes = 200000;      // per bound; reaching it leaves a wider (still valid) bracket
+  double relative_gap = 1e-6;  // stop a bound when upper - lower <= relative_gap * upper
+  double budget_seconds = 120;  // wall time for the three bounds together; 0 = until the gap is reached
+  int max_boxes = 2000000;      // per bound; reaching it leaves a wider (still valid) bracket
+  int threads = 0;              // 0: all cores
 };
-
-// lower: attained at argmax; upper: >= the supremum; boxes: boxes processed.
-using Bracket = BoundBracket;
 
 struct CertifiedBounds {
-  Bracket M0, B, L_joint;
+  BoundBracket M0, B, L_joint;
 };
 
+// Why a model cannot be certified, or empty when it can.
+std::string certification_unavailable(const Model& model);
+
 // Seeds its lower bounds with the numerical search's maxima. std::nullopt when the model cannot be
-// evaluated on intervals (the caller falls back to the numeric bounds and says so).
+// evaluated on intervals (certification_unavailable says why).
 std::optional<CertifiedBounds> certify_bounds(const Model& model, const BoundReport& numeric,
                                               const CertifiedOptions& options = {});
 
@@ -45,9 +73,15 @@ std::optional<CertifiedBounds> certify_bounds(const Model& model, const BoundRep
 // provable bounds.
 void apply_certified_bounds(BoundReport& report, const CertifiedBounds& certified);
 
-// Upper bound of ||X||₂ for a 2 x 2 interval matrix (closed form of λmax(XᵀX) in interval arithmetic).
+// Upper bound of ||X||₂ over an interval matrix (closed form for 2 x 2, Weyl's ||mid|| + ||rad||_F beyond).
 double norm_upper_bound(const IntervalMatrix& X);
-// Lower bound of λmin of a symmetric 2 x 2 interval matrix.
+// Lower bound of λmin over a symmetric interval matrix.
 double smallest_eigenvalue_lower_bound(const IntervalMatrix& M);
 
 }  // namespace obsgain
+
+// Lets Eigen hold duals of intervals (the planar templates build fixed-size Eigen matrices of them).
+namespace Eigen {
+template <>
+struct NumTraits<obsgain::DualInterval> : obsgain::DoubleBasedNumTraits<obsgain::DualInterval, 16> {};
+}  // namespace Eigen

@@ -15,8 +15,8 @@ namespace obsgain {
 // Raw text of the design options, parsed by to_design_options so that every error names the bad value.
 struct DesignArguments {
   std::string robot = "pendubot";
-  std::string base_link, tip_link, actuated;
-  std::string vmax, gamma, theta, alpha, beta, L, rate_margin;
+  std::string base_link, tip_link, actuated, armature;
+  std::string vmax, gamma, theta, alpha, beta, L, rate_margin, bound_budget;
   std::string lipschitz = "joint";
   std::string certificate = "tight";
   std::string bounds = "certified";

@@ -3,6 +3,7 @@
 #pragma once
 
 #include "obsgain/bounds.hpp"
+#include "obsgain/certified_bounds.hpp"
 #include "obsgain/lyapunov.hpp"
 #include "obsgain/model.hpp"
 
@@ -29,9 +30,11 @@ struct DesignOptions {
   // buys a finite, much smaller envelope constant k. A target-γ design raises θ so that γ itself is certified.
   double rate_margin = 0.01;
   Eigen::VectorXd velocity_bounds;  // empty: the model's own
-  // certified: interval branch and bound (models that support it; else numeric with a warning).
+  // certified: interval branch and bound; a model that cannot be evaluated on intervals then gets an
+  // estimate that is never called certified. numeric: the optimisers' lower estimates, by request.
   BoundMethod bound_method = BoundMethod::certified;
   BoundOptions bounds;
+  CertifiedOptions certified_bounds;
 };
 
 // One certificate evaluated for the design, so that paper and tight can be shown side by side.
@@ -44,7 +47,7 @@ struct CertificateSummary {
   double k1 = 0.0, k2 = 0.0;    // observer gains θα and θ²β
   Eigen::Matrix2d P = Eigen::Matrix2d::Zero();  // V(e) = eᵀ (P ⊗ I_n) e
   std::optional<double> lmi_max_eig;            // tight only: the LMI check, <= 0 certifies
-  bool certified = false;                       // a positive rate with a valid P
+  bool certified = false;                       // a positive rate with a valid P, on the bounds used
 };
 
 struct ShapeReport {
@@ -59,6 +62,7 @@ struct Design {
   std::string robot_name;
   RobotSource robot_source;
   int dof = 0;
+  Eigen::VectorXd armature;  // the model's reflected rotor inertias (zero: none)
   Eigen::VectorXd velocity_bounds;
   BoundReport bounds;
   double L_used = 0.0;
@@ -70,8 +74,14 @@ struct Design {
   std::optional<double> target_gamma;
   double rate_margin = 0.0;
   CertificateSummary paper, tight;
+  std::vector<std::string> notes;     // what loading the model decided (chain, lumped bodies, armature)
   std::vector<std::string> warnings;
+  // The certificate is a proof only if every bound it uses is proven: certified bounds, or an L given by the
+  // user (whose responsibility it then is). Otherwise the design is an estimate, and this says why.
+  std::string not_proven_reason;
   double wall_seconds = 0.0;
+
+  bool proven() const { return not_proven_reason.empty(); }
 
   const CertificateSummary& selected() const { return certificate == CertificateKind::paper ? paper : tight; }
 };
@@ -88,6 +98,10 @@ BoundReport design_bounds(const Model& model, const Eigen::VectorXd& velocity_bo
 
 // Given the bounds, the rest of the design.
 Design design_from_bounds(const Model& model, const BoundReport& bounds, const DesignOptions& options);
+
+// Why a design does not meet what was asked (the apps exit 1 with this line), or empty: a --gamma request
+// needs the selected certificate to hold, on proven bounds unless the user chose --bounds numeric.
+std::string unmet_request(const Design& design, const DesignOptions& options);
 
 const char* to_string(CertificateKind kind);
 const char* to_string(LipschitzKind kind);

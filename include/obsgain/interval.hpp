@@ -1,19 +1,23 @@
 // The interval scalar of obsgain's rigorous bounds: Boost.Interval with outward-rounded arithmetic, and
 // cos/sin from the C library widened outward by a few ulps (Boost's own transcendental policies do not
-// round outward).
+// round outward). Arithmetic runs with the FPU rounding upward (lower ends by negation), and each operation
+// switches the mode only if it is not already upward: a hot loop holds an UpwardRounding guard and pays no
+// mode switch at all (Boost's save_state switches twice per operation, 60 % of the run time).
 #pragma once
 
 #include <boost/numeric/interval.hpp>
 
 #include <Eigen/Core>
 
+#include <algorithm>
+#include <cfenv>
 #include <cmath>
 
 namespace obsgain {
 
 // Boost's cos (and sin, computed as a shifted cos) call cos_down/cos_up on a reduced argument; widen
 // glibc's result (accurate to < 1 ulp in every rounding mode) outward by 4 ulps and clamp to [-1, 1].
-struct OutwardTranscendentals : boost::numeric::interval_lib::rounded_arith_std<double> {
+struct OutwardTranscendentals : boost::numeric::interval_lib::rounded_arith_opp<double> {
   static double widen_down(double x) {
     for (int i = 0; i < 4; ++i) x = std::nextafter(x, -2.0);
     return std::max(x, -1.0);
@@ -26,21 +30,56 @@ struct OutwardTranscendentals : boost::numeric::interval_lib::rounded_arith_std<
   double cos_up(double x) { return widen_up(std::cos(x)); }
 };
 
+// Constructed by Boost around every interval operation.
+struct UpwardUnlessAlready : OutwardTranscendentals {
+  UpwardUnlessAlready() : saved_(std::fegetround()) {
+    if (saved_ != FE_UPWARD) std::fesetround(FE_UPWARD);
+  }
+  ~UpwardUnlessAlready() {
+    if (saved_ != FE_UPWARD) std::fesetround(saved_);
+  }
+  UpwardUnlessAlready(const UpwardUnlessAlready&) = delete;
+  UpwardUnlessAlready& operator=(const UpwardUnlessAlready&) = delete;
+  using unprotected_rounding = boost::numeric::interval_lib::save_state_nothing<OutwardTranscendentals>;
+
+ private:
+  int saved_;
+};
+
+// Holds the rounding mode upward for a scope (a worker's loop); floating-point estimates computed inside it
+// are still estimates, only rounded the other way.
+class UpwardRounding {
+ public:
+  UpwardRounding() : saved_(std::fegetround()) { std::fesetround(FE_UPWARD); }
+  ~UpwardRounding() { std::fesetround(saved_); }
+  UpwardRounding(const UpwardRounding&) = delete;
+  UpwardRounding& operator=(const UpwardRounding&) = delete;
+
+ private:
+  int saved_;
+};
+
 using Interval = boost::numeric::interval<
-    double, boost::numeric::interval_lib::policies<
-                boost::numeric::interval_lib::save_state<OutwardTranscendentals>,
-                boost::numeric::interval_lib::checking_strict<double>>>;
+    double, boost::numeric::interval_lib::policies<UpwardUnlessAlready, boost::numeric::interval_lib::checking_strict<double>>>;
+
+// A point inside x (its midpoint up to rounding), without Boost's median, which switches the rounding mode.
+inline double centre(const Interval& x) { return std::clamp(0.5 * x.lower() + 0.5 * x.upper(), x.lower(), x.upper()); }
 
 }  // namespace obsgain
 
-// Lets Eigen hold intervals (the templated dynamics build Eigen matrices of them).
+namespace obsgain {
+// What Eigen needs to hold a scalar built on doubles (intervals, duals of intervals) in its matrices.
+template <class Scalar, int Cost>
+struct DoubleBasedNumTraits : Eigen::GenericNumTraits<double> {
+  using Real = Scalar;
+  using NonInteger = Scalar;
+  using Nested = Scalar;
+  using Literal = double;
+  enum { IsComplex = 0, IsInteger = 0, IsSigned = 1, RequireInitialization = 1, ReadCost = 2, AddCost = Cost, MulCost = 2 * Cost };
+};
+}  // namespace obsgain
+
 namespace Eigen {
 template <>
-struct NumTraits<obsgain::Interval> : GenericNumTraits<double> {
-  using Real = obsgain::Interval;
-  using NonInteger = obsgain::Interval;
-  using Nested = obsgain::Interval;
-  using Literal = double;
-  enum { IsComplex = 0, IsInteger = 0, IsSigned = 1, RequireInitialization = 1, ReadCost = 2, AddCost = 4, MulCost = 8 };
-};
+struct NumTraits<obsgain::Interval> : obsgain::DoubleBasedNumTraits<obsgain::Interval, 4> {};
 }  // namespace Eigen

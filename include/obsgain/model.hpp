@@ -58,6 +58,7 @@ struct RobotSource {
   std::string robot = "pendubot";  // a built-in name, or the path of a model file (*.json) or URDF (*.urdf)
   std::string base_link, tip_link;  // URDF only: the chain (defaults: the root, the single leaf)
   std::vector<int> actuated;        // URDF only: 0/1 per joint (default: all actuated)
+  std::vector<double> armature;     // URDF and model files: overrides the file's reflected rotor inertias
 };
 
 struct Model {
@@ -68,6 +69,8 @@ struct Model {
   Eigen::MatrixXd friction;         // F, n x n (viscous)
   Eigen::MatrixXd input_matrix;     // H, n x m
   Eigen::VectorXd velocity_bounds;  // default V; empty when the model gives none
+  Eigen::VectorXd armature;         // reflected rotor inertia on M's diagonal (already inside the dynamics)
+  std::vector<std::string> notes;   // what loading decided for the user (chain chosen, bodies lumped, ...)
 
   int dof() const { return dynamics->dof(); }
 };

@@ -13,7 +13,8 @@
 
 namespace obsgain {
 
-Model load_model_file(const std::string& path);
+// `armature`, when given, overrides the file's (one value per joint).
+Model load_model_file(const std::string& path, const std::vector<double>& armature = {});
 
 // The same from parsed JSON; `source` names the file in error messages.
 Model model_from_json(const nlohmann::json& description, const std::string& source);

@@ -14,6 +14,7 @@ namespace obsgain {
 struct Planar2RParameters {
   std::array<double, 5> pi{};  // π1..π5
   double g0 = 9.81;
+  std::array<double, 2> armature{};  // reflected rotor inertias, added to M's diagonal
 };
 
 // M(q) depends on q2 only.
@@ -23,7 +24,7 @@ Eigen::Matrix<Scalar, 2, 2> planar_2r_mass_matrix(const Planar2RParameters& p, c
   const Scalar c2 = cos(q2);
   const Scalar off = p.pi[1] + p.pi[2] * c2;
   Eigen::Matrix<Scalar, 2, 2> M;
-  M << p.pi[0] + p.pi[1] + 2.0 * p.pi[2] * c2, off, off, Scalar(p.pi[1]);
+  M << p.pi[0] + p.pi[1] + p.armature[0] + 2.0 * p.pi[2] * c2, off, off, Scalar(p.pi[1] + p.armature[1]);
   return M;
 }
 
@@ -60,9 +61,11 @@ class Planar2RDynamics final : public Dynamics, public IntervalDynamics {
   void coriolis_bilinear(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Ref<const Eigen::VectorXd>& x,
                          const Eigen::Ref<const Eigen::VectorXd>& y, Eigen::Ref<Eigen::VectorXd> out) const override;
   std::vector<int> configuration_joints() const override { return {1}; }
+  // π1π2 > π3² (model files check it) makes the rigid part positive definite; the armature adds on top.
+  double inertia_floor() const override { return std::min(parameters_.armature[0], parameters_.armature[1]); }
   // The same templates on intervals, for certified bounds.
-  IntervalMatrix mass_matrix(const IntervalVector& q) const override;
-  std::vector<IntervalMatrix> coriolis_tensors(const IntervalVector& q) const override;
+  MatrixEnclosure mass_matrix(const std::vector<DualInterval>& q) const override;
+  std::vector<MatrixEnclosure> coriolis_tensors(const std::vector<DualInterval>& q) const override;
   const Planar2RParameters& parameters() const { return parameters_; }
 
  private:

@@ -1,0 +1,300 @@
+// The chain dynamics (recursive Newton–Euler, templated on the scalar) against KDL, an independent
+// implementation; their interval and interval-derivative enclosures against the double values and finite
+// differences at random points of random boxes; and the URDF quirks of real arms (fixed frames, fixed side
+// branches, grippers with mimic fingers, Drake transmissions).
+#include "obsgain/certified_bounds.hpp"
+#include "obsgain/robots.hpp"
+#include "obsgain/serial_chain.hpp"
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+#include <kdl/chaindynparam.hpp>
+#include <kdl/tree.hpp>
+#include <kdl_parser/kdl_parser.hpp>
+#include <urdf_parser/urdf_parser.h>
+
+#include <fstream>
+#include <numbers>
+#include <random>
+#include <sstream>
+
+namespace {
+
+const std::string examples = OBSGAIN_EXAMPLES_DIR;
+
+std::string read_text(const std::string& path) {
+  std::ifstream file(path);
+  std::ostringstream text;
+  text << file.rdbuf();
+  return text.str();
+}
+
+std::string write_urdf(const std::string& name, const std::string& text) {
+  const std::string path = ::testing::TempDir() + "/" + name;
+  std::ofstream(path) << text;
+  return path;
+}
+
+// KDL's chain from the file's root to `tip`, gravity -9.81 z.
+struct KdlReference {
+  KDL::Tree tree;
+  KDL::Chain chain;
+  std::unique_ptr<KDL::ChainDynParam> solver;
+  KdlReference(const std::string& path, const std::string& tip) {
+    const urdf::ModelInterfaceSharedPtr robot = urdf::parseURDF(read_text(path));
+    robot->root_link_->inertial.reset();  // the fixed world; kdl_parser would only warn about it
+    EXPECT_TRUE(kdl_parser::treeFromUrdfModel(*robot, tree));
+    EXPECT_TRUE(tree.getChain(robot->getRoot()->name, tip, chain));
+    solver = std::make_unique<KDL::ChainDynParam>(chain, KDL::Vector(0.0, 0.0, -9.81));
+  }
+};
+
+class ChainAgainstKdl : public ::testing::TestWithParam<std::pair<const char*, const char*>> {};
+
+TEST_P(ChainAgainstKdl, MassCoriolisAndGravityAgreeTo1e12) {
+  const auto [file, tip] = GetParam();
+  const std::string path = examples + "/" + file;
+  // KDL knows no rotor inertia: compare the rigid bodies alone.
+  const int dof = obsgain::load_robot({path}).dof();
+  const obsgain::Model model = obsgain::load_robot({path, "", "", {}, std::vector<double>(dof, 0.0)});
+  KdlReference kdl(path, tip);
+  const int n = model.dof();
+  ASSERT_EQ(static_cast<int>(kdl.chain.getNrOfJoints()), n);
+  std::mt19937_64 rng(17);
+  std::uniform_real_distribution<double> angle(-std::numbers::pi, std::numbers::pi), speed(-3.0, 3.0);
+  for (int trial = 0; trial < 20; ++trial) {
+    KDL::JntArray q(n), v(n), out(n);
+    KDL::JntSpaceInertiaMatrix M_kdl(n);
+    for (int i = 0; i < n; ++i) {
+      q(i) = angle(rng);
+      v(i) = speed(rng);
+    }
+    kdl.solver->JntToMass(q, M_kdl);
+    Eigen::MatrixXd M(n, n);
+    model.dynamics->mass_matrix(q.data, M);
+    EXPECT_LE((M - M_kdl.data).norm(), 1e-12 * M_kdl.data.norm()) << file;
+    kdl.solver->JntToCoriolis(q, v, out);
+    Eigen::VectorXd A(n);
+    model.dynamics->coriolis(q.data, v.data, A);
+    EXPECT_LE((A - out.data).norm(), 1e-12 * (out.data.norm() + M.norm())) << file;
+    kdl.solver->JntToGravity(q, out);
+    Eigen::VectorXd g(n);
+    model.dynamics->gravity(q.data, g);
+    EXPECT_LE((g - out.data).norm(), 1e-12 * (out.data.norm() + 1.0)) << file;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(ShippedArms, ChainAgainstKdl,
+                         ::testing::Values(std::pair{"pendubot.urdf", "link2"}, std::pair{"arm3.urdf", "forearm"},
+                                           std::pair{"arm6.urdf", "wrist_3_link"}, std::pair{"arm7.urdf", "link7"}),
+                         [](const auto& info) {
+                           const std::string file = info.param.first;
+                           return file.substr(0, file.find('.'));
+                         });
+
+// Random boxes, random points inside: the DualInterval evaluation encloses M, N and their derivatives
+// (central differences) at every point, for n = 2, 3, 6, 7.
+TEST(ChainIntervals, EncloseValuesAndDerivativesAtRandomPointsOfRandomBoxes) {
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  for (const char* file : {"pendubot.urdf", "arm3.urdf", "arm6.urdf", "arm7.urdf"}) {
+    const obsgain::Model model = obsgain::load_robot({examples + "/" + file});
+    const auto& dynamics = dynamic_cast<const obsgain::IntervalDynamics&>(*model.dynamics);
+    const int n = model.dof();
+    const int m = n - 1;  // the searched joints 2..n
+    for (int trial = 0; trial < 10; ++trial) {
+      std::vector<obsgain::DualInterval> box(n);
+      std::vector<double> lo(n), hi(n);
+      for (int i = 0; i < n; ++i) {
+        const double width = (trial < 5 ? 0.05 : 1.0) * unit(rng);
+        lo[i] = -3.0 + 6.0 * unit(rng) * 0.9;
+        hi[i] = lo[i] + width;
+        box[i] = i == 0 ? obsgain::DualInterval(obsgain::Interval(lo[0]))
+                        : obsgain::DualInterval::variable(obsgain::Interval(lo[i], hi[i]), i - 1, m);
+      }
+      hi[0] = lo[0];
+      const obsgain::MatrixEnclosure M = dynamics.mass_matrix(box);
+      const std::vector<obsgain::MatrixEnclosure> N = dynamics.coriolis_tensors(box);
+      for (int point = 0; point < 10; ++point) {
+        Eigen::VectorXd q(n);
+        for (int i = 0; i < n; ++i) q(i) = lo[i] + unit(rng) * (hi[i] - lo[i]);
+        Eigen::MatrixXd Mq(n, n);
+        model.dynamics->mass_matrix(q, Mq);
+        std::vector<Eigen::MatrixXd> Nq;
+        model.dynamics->coriolis_tensors(q, Nq);
+        const auto inside = [](const obsgain::Interval& x, double value, double slack) {
+          return x.lower() - slack <= value && value <= x.upper() + slack;
+        };
+        for (int r = 0; r < n; ++r)
+          for (int c = 0; c < n; ++c) {
+            EXPECT_TRUE(inside(M.value(r, c), Mq(r, c), 0.0)) << file << " M(" << r << "," << c << ")";
+            for (int i = 0; i < n; ++i) EXPECT_TRUE(inside(N[i].value(r, c), Nq[i](r, c), 1e-12 * (1 + Mq.norm()))) << file;
+          }
+        // Derivatives by central differences (their error, O(h²), is the slack).
+        const double h = 1e-6;
+        for (int k = 0; k < m; ++k) {
+          if (q(k + 1) - h < lo[k + 1] || q(k + 1) + h > hi[k + 1]) continue;
+          Eigen::VectorXd plus = q, minus = q;
+          plus(k + 1) += h;
+          minus(k + 1) -= h;
+          Eigen::MatrixXd Mp(n, n), Mm(n, n);
+          model.dynamics->mass_matrix(plus, Mp);
+          model.dynamics->mass_matrix(minus, Mm);
+          const Eigen::MatrixXd dM = (Mp - Mm) / (2 * h);
+          for (int r = 0; r < n; ++r)
+            for (int c = 0; c < n; ++c)
+              EXPECT_TRUE(inside(M.derivative[k](r, c), dM(r, c), 1e-6 * (1 + Mq.norm()))) << file << " dM/dq" << k + 2;
+        }
+      }
+    }
+  }
+}
+
+// A body in pieces — a link, a tool flange on a fixed joint, a fixed side branch (a sensor), and a gripper
+// whose two fingers are a prismatic joint and its <mimic> — must have the dynamics of the one body summed
+// by hand.
+const char* kPiecesUrdf = R"(<?xml version="1.0"?>
+<robot name="pieces">
+  <link name="world"/>
+  <joint name="j1" type="revolute"><parent link="world"/><child link="l1"/><axis xyz="0 0 1"/>
+    <limit lower="-3" upper="3" effort="10" velocity="2"/></joint>
+  <link name="l1"><inertial><origin xyz="0 0 0.1"/><mass value="2"/>
+    <inertia ixx="0.02" ixy="0" ixz="0" iyy="0.02" iyz="0" izz="0.01"/></inertial></link>
+  <joint name="j2" type="revolute"><parent link="l1"/><child link="l2"/><origin xyz="0 0 0.2"/><axis xyz="0 1 0"/>
+    <limit lower="-2" upper="2" effort="10" velocity="3"/></joint>
+  <link name="l2"><inertial><origin xyz="0.2 0 0"/><mass value="1"/>
+    <inertia ixx="0.001" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial></link>
+  <joint name="sensor_mount" type="fixed"><parent link="l2"/><child link="sensor"/><origin xyz="0.1 0.05 0"/></joint>
+  <link name="sensor"><inertial><mass value="0.2"/>
+    <inertia ixx="0.0001" ixy="0" ixz="0" iyy="0.0001" iyz="0" izz="0.0001"/></inertial></link>
+  <joint name="flange" type="fixed"><parent link="l2"/><child link="hand"/><origin xyz="0.4 0 0"/></joint>
+  <link name="hand"><inertial><mass value="0.5"/>
+    <inertia ixx="0.0005" ixy="0" ixz="0" iyy="0.0005" iyz="0" izz="0.0005"/></inertial></link>
+  <joint name="finger_left" type="prismatic"><parent link="hand"/><child link="left"/><axis xyz="0 1 0"/>
+    <limit lower="0" upper="0.04" effort="10" velocity="0.2"/></joint>
+  <link name="left"><inertial><mass value="0.1"/>
+    <inertia ixx="0.00001" ixy="0" ixz="0" iyy="0.00001" iyz="0" izz="0.00001"/></inertial></link>
+  <joint name="finger_right" type="prismatic"><parent link="hand"/><child link="right"/><axis xyz="0 -1 0"/>
+    <limit lower="0" upper="0.04" effort="10" velocity="0.2"/><mimic joint="finger_left"/></joint>
+  <link name="right"><inertial><mass value="0.1"/>
+    <inertia ixx="0.00001" ixy="0" ixz="0" iyy="0.00001" iyz="0" izz="0.00001"/></inertial></link>
+  <transmission name="t1"><type>transmission_interface/SimpleTransmission</type>
+    <joint name="j1"><hardwareInterface>EffortJointInterface</hardwareInterface></joint>
+    <actuator name="m1"><drake:gear_ratio value="100"/><drake:rotor_inertia value="0.0001"/></actuator></transmission>
+  <transmission name="t2"><type>transmission_interface/SimpleTransmission</type>
+    <joint name="j2"><hardwareInterface>EffortJointInterface</hardwareInterface></joint>
+    <actuator name="m2"><drake:gear_ratio value="50"/><drake:rotor_inertia value="0.0002"/></actuator></transmission>
+</robot>)";
+
+// The same second body summed by hand: point masses and own inertias moved to the common centre of mass
+// (the fingers locked at the middle of their range, 0.02 m, one each way).
+std::string hand_summed_urdf() {
+  struct Part {
+    double m;
+    Eigen::Vector3d c;
+    double I;  // isotropic own inertia, or the l2 link's diagonal below
+  };
+  const std::vector<Part> parts = {{0.2, {0.1, 0.05, 0}, 0.0001}, {0.5, {0.4, 0, 0}, 0.0005},
+                                   {0.1, {0.4, 0.02, 0}, 0.00001}, {0.1, {0.4, -0.02, 0}, 0.00001}};
+  double mass = 1.0;
+  Eigen::Vector3d moment = Eigen::Vector3d(0.2, 0, 0);
+  for (const auto& p : parts) {
+    mass += p.m;
+    moment += p.m * p.c;
+  }
+  const Eigen::Vector3d com = moment / mass;
+  const auto shift = [](double m, const Eigen::Vector3d& d) {
+    return Eigen::Matrix3d(m * (d.squaredNorm() * Eigen::Matrix3d::Identity() - d * d.transpose()));
+  };
+  Eigen::Matrix3d I = Eigen::Vector3d(0.001, 0.01, 0.01).asDiagonal();
+  I += shift(1.0, Eigen::Vector3d(0.2, 0, 0) - com);
+  for (const auto& p : parts) I += p.I * Eigen::Matrix3d::Identity() + shift(p.m, p.c - com);
+  std::string text = kPiecesUrdf;
+  const auto begin = text.find("<joint name=\"sensor_mount\"");
+  const auto end = text.find("<transmission");
+  text.replace(begin, end - begin, "");
+  const std::string l2 = fmt::format(
+      R"(<link name="l2"><inertial><origin xyz="{:.17g} {:.17g} {:.17g}"/><mass value="{:.17g}"/>
+    <inertia ixx="{:.17g}" ixy="{:.17g}" ixz="{:.17g}" iyy="{:.17g}" iyz="{:.17g}" izz="{:.17g}"/></inertial></link>
+  )",
+      com.x(), com.y(), com.z(), mass, I(0, 0), I(0, 1), I(0, 2), I(1, 1), I(1, 2), I(2, 2));
+  const auto l2_begin = text.find("<link name=\"l2\">");
+  const auto l2_end = text.find("</link>", l2_begin) + 7;
+  text.replace(l2_begin, l2_end - l2_begin, l2);
+  return text;
+}
+
+TEST(UrdfQuirks, FixedFramesSideBranchesAndMimicFingersAreLumpedIntoOneBody) {
+  const obsgain::Model pieces = obsgain::load_robot({write_urdf("pieces.urdf", kPiecesUrdf), "", "", {}, {0.0, 0.0}});
+  const obsgain::Model summed = obsgain::load_robot({write_urdf("summed.urdf", hand_summed_urdf()), "", "", {}, {0.0, 0.0}});
+  ASSERT_EQ(pieces.dof(), 2);  // the fingers are a gripper: locked, not chain joints
+  for (const Eigen::Vector2d q : {Eigen::Vector2d(0.3, -1.0), Eigen::Vector2d(-2.0, 1.7)}) {
+    Eigen::MatrixXd Mp(2, 2), Ms(2, 2);
+    pieces.dynamics->mass_matrix(q, Mp);
+    summed.dynamics->mass_matrix(q, Ms);
+    EXPECT_LE((Mp - Ms).norm(), 1e-13 * Ms.norm()) << q.transpose();
+    Eigen::VectorXd gp(2), gs(2);
+    pieces.dynamics->gravity(q, gp);
+    summed.dynamics->gravity(q, gs);
+    EXPECT_LE((gp - gs).norm(), 1e-13 * gs.norm()) << q.transpose();
+  }
+  std::string notes;
+  for (const auto& note : pieces.notes) notes += note + "\n";
+  EXPECT_NE(notes.find("'finger_left' at 0.02"), std::string::npos) << notes;
+  EXPECT_NE(notes.find("'finger_right' at 0.02"), std::string::npos) << notes;
+  EXPECT_NE(notes.find("taken as a gripper"), std::string::npos) << notes;
+}
+
+TEST(UrdfQuirks, DrakeTransmissionsPutReflectedRotorInertiaOnTheDiagonal) {
+  const std::string path = write_urdf("pieces.urdf", kPiecesUrdf);
+  const obsgain::Model with = obsgain::load_robot({path});
+  const obsgain::Model without = obsgain::load_robot({path, "", "", {}, {0.0, 0.0}});
+  ASSERT_EQ(with.armature.size(), 2);
+  EXPECT_DOUBLE_EQ(with.armature(0), 100.0 * 100.0 * 0.0001);  // 1 kg m²
+  EXPECT_DOUBLE_EQ(with.armature(1), 50.0 * 50.0 * 0.0002);    // 0.5 kg m²
+  const Eigen::Vector2d q(0.4, 0.9);
+  Eigen::MatrixXd M_with(2, 2), M_without(2, 2);
+  with.dynamics->mass_matrix(q, M_with);
+  without.dynamics->mass_matrix(q, M_without);
+  EXPECT_LE((M_with - M_without - Eigen::Matrix2d(Eigen::Vector2d(1.0, 0.5).asDiagonal())).norm(), 1e-14);
+  const obsgain::Model overridden = obsgain::load_robot({path, "", "", {}, {0.25, 0.125}});
+  Eigen::MatrixXd M_overridden(2, 2);
+  overridden.dynamics->mass_matrix(q, M_overridden);
+  EXPECT_LE((M_overridden - M_without - Eigen::Matrix2d(Eigen::Vector2d(0.25, 0.125).asDiagonal())).norm(), 1e-14);
+  std::string notes;
+  for (const auto& note : with.notes) notes += note;
+  EXPECT_NE(notes.find("drake:rotor_inertia"), std::string::npos) << notes;
+}
+
+TEST(UrdfQuirks, DefaultChainIgnoresFixedLeavesAndRefusesSeveralArms) {
+  // Fixed frames below the tip (UR-style ee_link and tool0) are leaves that change nothing.
+  std::string frames = kPiecesUrdf;
+  frames.replace(frames.find("</robot>"), 8, R"(<joint name="tool0_joint" type="fixed"><parent link="hand"/><child link="tool0"/>
+    <origin xyz="0 0 0.1"/></joint><link name="tool0"/></robot>)");
+  EXPECT_EQ(obsgain::load_robot({write_urdf("frames.urdf", frames)}).dof(), 2);
+  // Two long movable branches are two arms: the user must choose, and the error names the candidates.
+  std::string two_arms = R"(<?xml version="1.0"?><robot name="dual"><link name="torso"/>)";
+  for (const char* side : {"left", "right"}) {
+    std::string parent = "torso";
+    for (int i = 1; i <= 4; ++i) {
+      const std::string link = fmt::format("{}_{}", side, i);
+      two_arms += fmt::format(R"(<joint name="{0}_j" type="continuous"><parent link="{1}"/><child link="{0}"/>
+        <origin xyz="0 0 0.1"/><axis xyz="0 1 0"/></joint><link name="{0}"><inertial><mass value="1"/>
+        <inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial></link>)",
+                              link, parent);
+      parent = link;
+    }
+  }
+  two_arms += "</robot>";
+  try {
+    obsgain::load_robot({write_urdf("two_arms.urdf", two_arms)});
+    ADD_FAILURE() << "two arms need --tip-link";
+  } catch (const obsgain::InputError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("--tip-link"), std::string::npos) << what;
+    EXPECT_NE(what.find("left_4, right_4"), std::string::npos) << what;
+  }
+  EXPECT_EQ(obsgain::load_robot({write_urdf("two_arms.urdf", two_arms), "", "left_4", {}}).dof(), 4);
+}
+
+}  // namespace
