@@ -8,16 +8,17 @@
 
 int main(int argc, char** argv) {
   CLI::App app{"Design certified velocity-observer gains (saturated Luenberger observer)", "design-gains"};
+  app.set_version_flag("--version", obsgain::version());
   obsgain::DesignArguments arguments;
   obsgain::add_design_options(app, arguments);
   std::string json_path;
-  auto* json = app.add_option("--json", json_path, "write JSON to stdout, or to FILE")->expected(0, 1);
+  auto* json = app.add_option("--json", json_path, "write JSON to stdout (no FILE, or -), or to FILE")->expected(0, 1);
   return obsgain::run_app(app, argc, argv, [&] {
     const obsgain::DesignOptions options = obsgain::to_design_options(arguments);
     const obsgain::Model model = obsgain::load_robot(obsgain::to_robot_source(arguments));
     const obsgain::Design design = obsgain::design_gains(model, options);
     const std::string text = obsgain::to_json(design).dump(2) + "\n";
-    if (json->count() > 0 && json_path.empty()) {
+    if (json->count() > 0 && (json_path.empty() || json_path == "-")) {  // "-": stdout, as usual
       std::cout << text;
     } else {
       std::cout << obsgain::format_report(design);

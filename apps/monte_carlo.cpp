@@ -8,12 +8,13 @@
 
 int main(int argc, char** argv) {
   CLI::App app{"Validate a certified observer design by Monte Carlo simulation", "monte-carlo"};
+  app.set_version_flag("--version", obsgain::version());
   obsgain::DesignArguments design;
   obsgain::add_design_options(app, design);
   obsgain::MonteCarloArguments arguments;
   obsgain::add_monte_carlo_options(app, arguments);
   std::string json_path, csv_path, trajectory_path;
-  auto* json = app.add_option("--json", json_path, "write JSON to stdout, or to FILE")->expected(0, 1);
+  auto* json = app.add_option("--json", json_path, "write JSON to stdout (no FILE, or -), or to FILE")->expected(0, 1);
   app.add_option("--csv", csv_path, "write one row per trial to FILE");
   app.add_option("--trajectory", trajectory_path, "write the time series of trial 0 to FILE");
   return obsgain::run_app(app, argc, argv, [&] {
@@ -22,7 +23,7 @@ int main(int argc, char** argv) {
     const obsgain::ValidationTarget target = obsgain::load_validation_target(design, arguments.design_file);
     const obsgain::MonteCarloReport report =
         obsgain::run_monte_carlo(target.model, target.velocity_bounds, target.certificate, options);
-    if (json->count() > 0 && json_path.empty()) {
+    if (json->count() > 0 && (json_path.empty() || json_path == "-")) {  // "-": stdout, as usual
       std::cout << obsgain::to_json(report).dump(2) << "\n";
     } else {
       std::cout << obsgain::format_report(report);

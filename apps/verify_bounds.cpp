@@ -9,6 +9,7 @@
 
 int main(int argc, char** argv) {
   CLI::App app{"Write a bound-verification report (HTML, JSON, CSV, plots)", "verify-bounds"};
+  app.set_version_flag("--version", obsgain::version());
   obsgain::DesignArguments design;
   obsgain::add_design_options(app, design);
   obsgain::MonteCarloArguments monte_carlo;

@@ -13,6 +13,8 @@
 
 namespace obsgain {
 
+std::string version() { return "obsgain " OBSGAIN_VERSION; }
+
 double parse_number(const std::string& name, const std::string& text) {
   const char* begin = text.c_str();
   char* end = nullptr;
@@ -39,6 +41,8 @@ void add_design_options(CLI::App& app, DesignArguments& a) {
   app.add_option("--actuated", a.actuated, "URDF: 0/1 per joint, e.g. 1,0 for a Pendubot (default: all)");
   app.add_option("--armature", a.armature,
                  "URDF or model file: reflected rotor inertia per joint a1,...,an [kg m^2] (default: the file's)");
+  app.add_option("--joint-limits", a.joint_limits,
+                 "URDF: joint ranges lo1:hi1,lo2:hi2,... [rad or m], c for the full circle (default: the file's <limit>)");
   app.add_option("--vmax", a.vmax, "velocity bounds V1,...,Vn [rad/s] (default: the model's)");
   app.add_option("--gamma", a.gamma, "target convergence rate [1/s]: theta is the smallest gain certifying it");
   app.add_option("--theta", a.theta, "evaluate this gain theta and report the certified rate");
@@ -87,7 +91,26 @@ DesignOptions to_design_options(const DesignArguments& a) {
 }
 
 RobotSource to_robot_source(const DesignArguments& a) {
-  RobotSource source{a.robot, a.base_link, a.tip_link, {}, {}};
+  RobotSource source{a.robot, a.base_link, a.tip_link, {}, {}, {}};
+  if (!a.joint_limits.empty()) {
+    std::stringstream stream(a.joint_limits);
+    std::string item;
+    while (std::getline(stream, item, ',')) {
+      const auto i = source.joint_limits.size() + 1;
+      JointDomain domain;
+      if (item != "c") {
+        const auto colon = item.find(':');
+        if (colon == std::string::npos)
+          throw InputError(fmt::format("joint-limits: range {} = '{}' is not lower:upper or c", i, item));
+        domain.continuous = false;
+        domain.lower = parse_number(fmt::format("joint-limits lower {}", i), item.substr(0, colon));
+        domain.upper = parse_number(fmt::format("joint-limits upper {}", i), item.substr(colon + 1));
+        if (!(domain.lower < domain.upper))
+          throw InputError(fmt::format("joint-limits: range {} = '{}' needs lower < upper", i, item));
+      }
+      source.joint_limits.push_back(domain);
+    }
+  }
   if (!a.armature.empty()) {
     const Eigen::VectorXd armature = parse_number_list("armature", a.armature);
     for (Eigen::Index i = 0; i < armature.size(); ++i) {
@@ -181,6 +204,8 @@ int run_app(CLI::App& app, int argc, char** argv, const std::function<int()>& bo
   } catch (const CLI::CallForHelp& e) {
     return app.exit(e);
   } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForVersion& e) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
     std::cerr << app.get_name() << ": error: " << e.what() << "\n";

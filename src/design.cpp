@@ -190,7 +190,9 @@ Design design_gains(const Model& model, const DesignOptions& options) {
   const auto start = std::chrono::steady_clock::now();
   const Eigen::VectorXd V = options.velocity_bounds.size() ? options.velocity_bounds : model.velocity_bounds;
   if (V.size() == 0)
-    throw InputError("model '" + model.name + "' gives no velocity bounds: pass --vmax V1,...,Vn");
+    throw InputError("model '" + model.name + "' gives no velocity bounds" +
+                     (model.missing_velocity_bounds.empty() ? "" : " (" + model.missing_velocity_bounds + ")") +
+                     ": pass --vmax V1,...,Vn");
   validate_velocity_bounds(model, V);
   std::vector<std::string> warnings;
   const BoundReport bounds = design_bounds(model, V, options, warnings);

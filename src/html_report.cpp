@@ -97,7 +97,9 @@ std::vector<Plot> plots(const VerificationReport& r) {
                           "'paper_scenario.csv' every ::1 using 1:{} with lines dt 2 lw 2 title 'v{} estimate'",
                           i ? ", " : "", 2 + n + i, i + 1, 2 + 3 * n + i, i + 1);
   }
-  out.push_back({"paper_scenario", "The paper's scenario: velocities and their estimates (the paper's Fig. 2)",
+  out.push_back({"paper_scenario",
+                 r.example_scenario == "paper" ? "The paper's scenario: velocities and their estimates (the paper's Fig. 2)"
+                                               : "Random trial 0: velocities and their estimates",
                  common + "set xlabel 't [s]'\nset ylabel 'rad/s'\nplot " + series + "\n"});
   out.push_back({"monte_carlo_errors", "Monte Carlo error norms against the certified envelope",
                  common + fmt::format("set logscale y\nset format y '1e%T'\nset xlabel 't [s]'\n"
@@ -182,10 +184,13 @@ std::string html(const VerificationReport& r, const std::vector<Plot>& plot_list
   h << "<h2>4. Certificates side by side</h2>\n<table>\n" << table_row({"", "paper (Theorem 1)", "tight (bounded-real)"}, true);
   for (const ComparisonRow& row : certificate_comparison(d)) h << table_row({row.label, number(row.paper), number(row.tight)});
   h << "</table>\n<p>Selected: <b>" << to_string(d.certificate) << "</b>. "
-    << (d.selected().certified
-            ? fmt::format("<span class='ok'>Certified</span>: ||e(t)|| ≤ {:.6g} ||e(0)|| e<sup>−{:.6g} t</sup>.", d.selected().k,
-                          d.selected().envelope_gamma)
-            : std::string("<span class='bad'>Not certified.</span>"))
+    << (!d.selected().certified
+            ? std::string("<span class='bad'>Not certified.</span>")
+            : fmt::format("{}: ||e(t)|| ≤ {:.6g} ||e(0)|| e<sup>−{:.6g} t</sup>.",
+                          d.proven() ? "<span class='ok'>Certified</span>"
+                                     : "<span class='bad'>Estimate (numeric bounds, not proven)</span>",
+                          d.selected().k, d.selected().envelope_gamma) +
+                  (d.proven() ? "" : " Not proven: " + d.not_proven_reason + "."))
     << (d.tight.lmi_max_eig ? fmt::format(" Tight certificate LMI largest eigenvalue {:.2e} (negative certifies).",
                                           *d.tight.lmi_max_eig)
                             : "")

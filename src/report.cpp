@@ -129,6 +129,12 @@ nlohmann::json to_json(const Design& d) {
   if (d.bounds.certified) j["bounds"]["brackets"] = certified_json(d.bounds);
   j["notes"] = d.notes;
   j["robot"]["armature"] = to_json(d.armature);
+  if (!d.robot_source.joint_limits.empty()) {
+    nlohmann::json limits = nlohmann::json::array();
+    for (const JointDomain& domain : d.robot_source.joint_limits)
+      limits.push_back(domain.continuous ? nlohmann::json("c") : nlohmann::json{domain.lower, domain.upper});
+    j["robot"]["joint_limits"] = limits;  // the --joint-limits override, so that monte-carlo loads the same robot
+  }
   if (d.shape.optimized) {
     j["shape"] = {{"objective", d.shape.objective},         {"alpha_global", d.shape.alpha_global},
                   {"alpha_polish", d.shape.alpha_polish},   {"objective_global", d.shape.objective_global},
@@ -292,6 +298,17 @@ SavedDesign saved_design_from_json(const nlohmann::json& j) {
     saved.robot.base_link = robot.value("base_link", "");
     saved.robot.tip_link = robot.value("tip_link", "");
     saved.robot.actuated = robot.value("actuated", std::vector<int>{});
+    if (robot.contains("joint_limits")) {
+      for (const nlohmann::json& range : robot.at("joint_limits")) {
+        JointDomain domain;
+        if (range != "c") {
+          domain.continuous = false;
+          domain.lower = range.at(0).get<double>();
+          domain.upper = range.at(1).get<double>();
+        }
+        saved.robot.joint_limits.push_back(domain);
+      }
+    }
     // The armature the design used, given again: a file whose transmissions changed still gets these values.
     if (saved.robot.robot.ends_with(".urdf") || saved.robot.robot.ends_with(".json"))
       saved.robot.armature = robot.value("armature", std::vector<double>{});

@@ -15,8 +15,8 @@ namespace {
 Model load(const RobotSource& source) {
   const std::string& robot = source.robot;
   if (robot.ends_with(".urdf")) return load_urdf(source);
-  if (!source.base_link.empty() || !source.tip_link.empty() || !source.actuated.empty())
-    throw InputError("--base-link, --tip-link and --actuated apply to URDF robots only, not to '" + robot + "'");
+  if (!source.base_link.empty() || !source.tip_link.empty() || !source.actuated.empty() || !source.joint_limits.empty())
+    throw InputError("--base-link, --tip-link, --actuated and --joint-limits apply to URDF robots only, not to '" + robot + "'");
   if (!source.armature.empty() && !robot.ends_with(".json"))
     throw InputError("--armature applies to URDF robots and model files only, not to '" + robot + "'");
   if (robot == "pendubot") return pendubot();

@@ -53,27 +53,34 @@ std::string read_file(const std::string& path) {
   return text.str();
 }
 
-JointDomain joint_domain(const urdf::Joint& joint, const std::string& source) {
+// The joint's domain from the file, or from --joint-limits (its type stays the file's).
+JointDomain joint_domain(const urdf::Joint& joint, const JointDomain* override_limits, const std::string& source) {
+  const JointType type = joint.type == urdf::Joint::PRISMATIC ? JointType::prismatic : JointType::revolute;
+  if (joint.type != urdf::Joint::CONTINUOUS && joint.type != urdf::Joint::REVOLUTE && joint.type != urdf::Joint::PRISMATIC)
+    throw InputError(fmt::format("{}: joint '{}' is neither revolute, continuous nor prismatic", source, joint.name));
   JointDomain domain;
-  switch (joint.type) {
-    case urdf::Joint::CONTINUOUS:
-      return domain;
-    case urdf::Joint::REVOLUTE:
-    case urdf::Joint::PRISMATIC:
-      domain.type = joint.type == urdf::Joint::REVOLUTE ? JointType::revolute : JointType::prismatic;
-      domain.continuous = false;
-      if (!joint.limits || !(joint.limits->lower < joint.limits->upper))
-        throw InputError(fmt::format("{}: joint '{}' needs <limit lower upper> with lower < upper", source, joint.name));
-      domain.lower = joint.limits->lower;
-      domain.upper = joint.limits->upper;
-      // M and C see a revolute joint through sin/cos only: a range of a full turn or more is the whole circle.
-      if (domain.type == JointType::revolute && domain.upper - domain.lower >= 2.0 * std::numbers::pi) return JointDomain{};
-      return domain;
-    default:
-      throw InputError(fmt::format("{}: joint '{}' is neither revolute, continuous nor prismatic", source, joint.name));
+  if (override_limits) {
+    domain = *override_limits;
+    if (domain.continuous && type == JointType::prismatic)
+      throw InputError(fmt::format("joint-limits: joint '{}' is prismatic: it needs lower:upper, not c", joint.name));
+  } else if (joint.type == urdf::Joint::CONTINUOUS) {
+    return domain;
+  } else {
+    if (!joint.limits || !(joint.limits->lower < joint.limits->upper))
+      throw InputError(fmt::format("{}: joint '{}' has <limit lower=\"{}\" upper=\"{}\">: lower must be below upper "
+                                   "(override with --joint-limits lo1:hi1,...; c for a continuous joint)",
+                                   source, joint.name, joint.limits ? joint.limits->lower : 0.0,
+                                   joint.limits ? joint.limits->upper : 0.0));
+    domain.continuous = false;
+    domain.lower = joint.limits->lower;
+    domain.upper = joint.limits->upper;
   }
+  domain.type = type;
+  // M and C see a revolute joint through sin/cos only: a range of a full turn or more is the whole circle.
+  if (type == JointType::revolute && !domain.continuous && domain.upper - domain.lower >= 2.0 * std::numbers::pi)
+    return JointDomain{};
+  return domain;
 }
-
 
 Eigen::Isometry3d to_isometry(const urdf::Pose& pose) {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
@@ -302,9 +309,15 @@ Model load_urdf(const RobotSource& options) {
       chain.joints.push_back(c);
       chain.bodies.emplace_back();
       joint_names.push_back(joint->name);
-      model.joints.push_back(joint_domain(*joint, source));
+      const std::size_t index = joint_names.size() - 1;
+      model.joints.push_back(joint_domain(*joint, index < options.joint_limits.size() ? &options.joint_limits[index] : nullptr,
+                                          source));
       const double velocity = joint->limits ? joint->limits->velocity : 0.0;
-      every_velocity_limit = every_velocity_limit && velocity > 0.0;
+      if (!(velocity > 0.0)) {
+        every_velocity_limit = false;
+        model.missing_velocity_bounds += fmt::format("{}joint '{}' has <limit velocity=\"{}\">",
+                                                     model.missing_velocity_bounds.empty() ? "" : ", ", joint->name, velocity);
+      }
       placement = Eigen::Isometry3d::Identity();
     } else {
       const double position = movable(*joint) ? locked_position(*robot, *joint) : 0.0;
@@ -315,6 +328,8 @@ Model load_urdf(const RobotSource& options) {
   }
   const int n = chain.dof();
   if (n == 0) throw InputError(fmt::format("{}: the chain below '{}' has no moving joint", source, base));
+  if (!options.joint_limits.empty() && static_cast<int>(options.joint_limits.size()) != n)
+    throw InputError(fmt::format("joint-limits: the chain has {} joints, got {} ranges", n, options.joint_limits.size()));
   if (!locked.empty()) {
     std::string list;
     for (const auto& item : locked) list += (list.empty() ? "" : ", ") + item;

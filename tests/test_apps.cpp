@@ -103,6 +103,17 @@ TEST(DesignGainsApp, JsonOnStdoutAndTableOtherwise) {
   EXPECT_NE(numeric["certified_reason"].get<std::string>().find("--bounds numeric"), std::string::npos);
 }
 
+TEST(DesignGainsApp, VersionAndJsonDashMeanStdout) {
+  for (const char* app : {"design-gains", "monte-carlo", "verify-bounds"}) {
+    const AppRun v = run(app, "--version");
+    EXPECT_EQ(v.exit_code, 0) << app;
+    EXPECT_EQ(v.out.rfind("obsgain ", 0), 0u) << app << ": " << v.out;
+  }
+  const AppRun j = run("design-gains", "--robot pendubot --gamma 1.27 --bounds numeric --json -");
+  ASSERT_EQ(j.exit_code, 0) << j.err;
+  EXPECT_NEAR(nlohmann::json::parse(j.out)["bounds"]["L_joint"].get<double>(), 43.3475, 1e-4);
+}
+
 TEST(DesignGainsApp, JsonToFile) {
   const std::string path = ::testing::TempDir() + "/obsgain_design.json";
   const AppRun r = run("design-gains", "--gamma 2 --certificate paper --bounds numeric --json " + path);

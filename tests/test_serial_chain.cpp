@@ -3,6 +3,7 @@
 // differences at random points of random boxes; and the URDF quirks of real arms (fixed frames, fixed side
 // branches, grippers with mimic fingers, Drake transmissions).
 #include "obsgain/certified_bounds.hpp"
+#include "obsgain/design.hpp"
 #include "obsgain/robots.hpp"
 #include "obsgain/serial_chain.hpp"
 
@@ -295,6 +296,48 @@ TEST(UrdfQuirks, DefaultChainIgnoresFixedLeavesAndRefusesSeveralArms) {
     EXPECT_NE(what.find("left_4, right_4"), std::string::npos) << what;
   }
   EXPECT_EQ(obsgain::load_robot({write_urdf("two_arms.urdf", two_arms), "", "left_4", {}}).dof(), 4);
+}
+
+}  // namespace
+
+namespace {
+
+// A CAD export: limits 0/0 and velocity 0. Refused naming the joint, the attribute and the override; accepted
+// with --joint-limits and --vmax.
+TEST(UrdfQuirks, CadLimitsAreRefusedNamingTheJointAndTheOverride) {
+  std::string cad = kPiecesUrdf;
+  const std::string limit = R"(<limit lower="-2" upper="2" effort="10" velocity="3"/>)";
+  cad.replace(cad.find(limit), limit.size(), R"(<limit lower="0" upper="0" effort="0" velocity="0"/>)");
+  const std::string path = write_urdf("cad.urdf", cad);
+  try {
+    obsgain::load_robot({path});
+    ADD_FAILURE() << "limits 0/0 must be refused";
+  } catch (const obsgain::InputError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("joint 'j2' has <limit lower=\"0\" upper=\"0\">"), std::string::npos) << what;
+    EXPECT_NE(what.find("--joint-limits"), std::string::npos) << what;
+  }
+  obsgain::RobotSource source{path};
+  source.joint_limits = {obsgain::JointDomain{}, obsgain::JointDomain{obsgain::JointType::revolute, false, -1.5, 1.5}};
+  const obsgain::Model model = obsgain::load_robot(source);
+  EXPECT_TRUE(model.joints[0].continuous);  // "c": the full circle, whatever the file says
+  EXPECT_DOUBLE_EQ(model.joints[1].lower, -1.5);
+  EXPECT_EQ(model.velocity_bounds.size(), 0);
+  EXPECT_NE(model.missing_velocity_bounds.find("joint 'j2' has <limit velocity=\"0\">"), std::string::npos)
+      << model.missing_velocity_bounds;
+  obsgain::DesignOptions options;
+  options.gamma = 2.0;
+  options.bound_method = obsgain::BoundMethod::numeric;
+  try {
+    obsgain::design_gains(model, options);
+    ADD_FAILURE() << "no velocity bounds: --vmax is needed";
+  } catch (const obsgain::InputError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("joint 'j2' has <limit velocity=\"0\">"), std::string::npos) << what;
+    EXPECT_NE(what.find("--vmax"), std::string::npos) << what;
+  }
+  options.velocity_bounds = Eigen::Vector2d(2.0, 3.0);
+  EXPECT_TRUE(obsgain::design_gains(model, options).selected().certified);
 }
 
 }  // namespace

@@ -15,7 +15,7 @@ namespace obsgain {
 // Raw text of the design options, parsed by to_design_options so that every error names the bad value.
 struct DesignArguments {
   std::string robot = "pendubot";
-  std::string base_link, tip_link, actuated, armature;
+  std::string base_link, tip_link, actuated, armature, joint_limits;
   std::string vmax, gamma, theta, alpha, beta, L, rate_margin, bound_budget;
   std::string lipschitz = "joint";
   std::string certificate = "tight";
@@ -50,6 +50,9 @@ ValidationTarget load_validation_target(const DesignArguments& design, const std
 double parse_number(const std::string& name, const std::string& text);
 // "1,2.5,3" -> (1, 2.5, 3).
 Eigen::VectorXd parse_number_list(const std::string& name, const std::string& text);
+
+// "obsgain X.Y.Z", for --version.
+std::string version();
 
 // Runs an app's body: bad input (InputError, CLI11 parse errors) prints one line on stderr and exits 2;
 // --help prints and exits 0; anything else unexpected prints and exits 3.

@@ -59,6 +59,7 @@ struct RobotSource {
   std::string base_link, tip_link;  // URDF only: the chain (defaults: the root, the single leaf)
   std::vector<int> actuated;        // URDF only: 0/1 per joint (default: all actuated)
   std::vector<double> armature;     // URDF and model files: overrides the file's reflected rotor inertias
+  std::vector<JointDomain> joint_limits;  // URDF only: overrides the file's limits (continuous = the circle)
 };
 
 struct Model {
@@ -69,6 +70,7 @@ struct Model {
   Eigen::MatrixXd friction;         // F, n x n (viscous)
   Eigen::MatrixXd input_matrix;     // H, n x m
   Eigen::VectorXd velocity_bounds;  // default V; empty when the model gives none
+  std::string missing_velocity_bounds;  // why it gives none (the joints and attributes), for the error
   Eigen::VectorXd armature;         // reflected rotor inertia on M's diagonal (already inside the dynamics)
   std::vector<std::string> notes;   // what loading decided for the user (chain chosen, bodies lumped, ...)
 

@@ -36,7 +36,8 @@ struct VerificationReport {
   Design design;
   MonteCarloReport monte_carlo;
   std::vector<BoundCurvePoint> bound_curve;
-  std::vector<TrajectorySample> paper_run;             // the paper scenario, trial 0 (Fig. 2)
+  std::vector<TrajectorySample> paper_run;             // trial 0 of example_scenario (for the Pendubot: Fig. 2)
+  std::string example_scenario;                        // "paper" for the paper's two-link family, else "random"
   std::vector<std::vector<TrajectorySample>> error_traces;  // Monte Carlo trials for the error plot
   std::vector<RateCurvePoint> rate_curve;
 };
