@@ -25,7 +25,9 @@ int main(int argc, char** argv) {
     options.monte_carlo.progress = isatty(STDERR_FILENO) != 0;
     const obsgain::Model model = obsgain::load_robot(obsgain::to_robot_source(design));
     const obsgain::VerificationReport report = obsgain::verify_design(model, options);
+    if (options.design.progress && model.dof() > 2) options.design.progress("writing the report and its plots");
     const obsgain::WrittenReport written = obsgain::write_verification_report(report, out);
+    std::cerr << obsgain::format_warnings(report.design);
     std::cout << obsgain::format_report(report.design) << "\n" << obsgain::format_report(report.monte_carlo) << "\n";
     std::cout << "report: " << written.html << "\n       " << written.json << "\n";
     if (!written.plots) std::cout << "plots missing: " << written.plots_note << "\n";

@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <sstream>
@@ -19,7 +20,10 @@ double parse_number(const std::string& name, const std::string& text) {
   const char* begin = text.c_str();
   char* end = nullptr;
   const double value = std::strtod(begin, &end);
-  if (text.empty() || end == begin || *end != '\0') throw InputError(fmt::format("{} = '{}' is not a number", name, text));
+  // Decimal only: strtod would also take "0x10" (16) and "infinity".
+  const bool decimal = text.find_first_of("xXpP") == std::string::npos && text.find_first_not_of("0123456789+-.eE") == std::string::npos;
+  if (text.empty() || end == begin || *end != '\0' || !decimal)
+    throw InputError(fmt::format("{} = '{}' is not a decimal number", name, text.substr(0, 40)));
   if (!std::isfinite(value)) throw InputError(fmt::format("{} = {} must be finite", name, text));
   return value;
 }
@@ -62,6 +66,7 @@ void add_design_options(CLI::App& app, DesignArguments& a) {
   app.add_option("--bound-budget", a.bound_budget,
                  "certified bounds: wall-time budget in seconds for the interval search (default 120; 0: until the "
                  "gap target); the design uses the proven upper ends reached, whatever the gap");
+  app.add_flag("--quiet", a.quiet, "no progress lines on stderr");
   app.add_option("--rate-margin", a.rate_margin,
                  "tight certificate: P is computed at gamma_sup (1 - margin) (default 0.01)");
 }
@@ -75,6 +80,7 @@ DesignOptions to_design_options(const DesignArguments& a) {
   if (!a.alpha.empty()) o.alpha = parse_number("alpha", a.alpha);
   if (!a.beta.empty()) o.beta = parse_number("beta", a.beta);
   o.optimize_shape = a.optimize_shape;
+  if (!a.quiet) o.progress = [](const std::string& phase) { std::cerr << phase << std::endl; };
   o.lipschitz = a.lipschitz == "paper" ? LipschitzKind::paper : LipschitzKind::joint;
   o.certificate = a.certificate == "paper" ? CertificateKind::paper : CertificateKind::tight;
   o.bound_method = a.bounds == "numeric" ? BoundMethod::numeric : BoundMethod::certified;
@@ -152,9 +158,9 @@ int parse_count(const std::string& name, const std::string& text, int minimum) {
   return static_cast<int>(value);
 }
 
-double parse_positive(const std::string& name, const std::string& text) {
+double parse_in(const std::string& name, const std::string& text, double lower, double upper) {
   const double value = parse_number(name, text);
-  if (value <= 0.0) throw InputError(fmt::format("{} = {} must be positive", name, text));
+  if (value < lower || value > upper) throw InputError(fmt::format("--{} = {} must lie in [{:g}, {:g}]", name, text, lower, upper));
   return value;
 }
 
@@ -167,9 +173,12 @@ MonteCarloOptions to_monte_carlo_options(const MonteCarloArguments& a) {
   if (seed < 0 || seed != std::floor(seed) || seed > 9e15) throw InputError(fmt::format("seed = {} must be a whole number >= 0", a.seed));
   o.seed = static_cast<std::uint64_t>(seed);
   o.threads = parse_count("threads", a.threads, 0);
-  o.simulation.horizon = parse_positive("horizon", a.horizon);
-  o.simulation.rtol = parse_positive("rtol", a.rtol);
-  o.simulation.atol = parse_positive("atol", a.atol);
+  // Tolerances the checks can trust (a loose integrator manufactures false counterexamples), a horizon that
+  // ends, and no more threads than could ever help.
+  o.simulation.horizon = parse_in("horizon", a.horizon, 1e-6, 1e3);
+  o.simulation.rtol = parse_in("rtol", a.rtol, 1e-13, 1e-4);
+  o.simulation.atol = parse_in("atol", a.atol, 1e-20, 1e-6);
+  if (o.threads > 256) throw InputError(fmt::format("--threads = {} must lie in [0, 256] (0: all cores)", a.threads));
   o.scenario = a.scenario == "paper" ? Scenario::paper : Scenario::random;
   o.initial_errors = a.initial_errors == "practical" ? InitialErrors::practical
                      : a.initial_errors == "global"  ? InitialErrors::global
@@ -184,13 +193,16 @@ ValidationTarget load_validation_target(const DesignArguments& design, const std
     const Design d = design_gains(model, options);
     return {std::move(model), d.velocity_bounds, observer_certificate(d)};
   }
+  std::error_code error;
+  if (!std::filesystem::is_regular_file(design_file, error))
+    throw InputError("cannot read design file '" + design_file + "' (not a file)");
   std::ifstream file(design_file);
   if (!file) throw InputError("cannot read design file '" + design_file + "'");
   nlohmann::json j;
   try {
     file >> j;
-  } catch (const nlohmann::json::exception&) {
-    throw InputError("design file '" + design_file + "' is not valid JSON");
+  } catch (const nlohmann::json::exception& e) {
+    throw InputError("design file '" + design_file + "' is not valid JSON: " + e.what());
   }
   SavedDesign saved = saved_design_from_json(j);
   Model model = load_robot(saved.robot);

@@ -13,9 +13,11 @@ namespace obsgain {
 
 namespace {
 
-void require_positive(const char* name, double value) {
-  if (!std::isfinite(value) || value <= 0.0)
-    throw InputError(fmt::format("{} = {} must be positive and finite", name, value));
+// The admissible ranges: wide enough for any robot and observer that can be built, narrow enough that the
+// certificates' arithmetic (θ², L θ, bisections over θ) stays finite and terminates.
+void require_in(const char* name, double value, double lower, double upper) {
+  if (!std::isfinite(value) || value < lower || value > upper || value <= 0.0)
+    throw InputError(fmt::format("--{} = {} must lie in [{:g}, {:g}]", name, value, lower, upper));
 }
 
 // β = 1, minimise objective(α) over α ∈ [1e-2, 1e2] (searched in log α): DIRECT-L, then Ipopt.
@@ -78,16 +80,16 @@ const char* to_string(LipschitzKind kind) { return kind == LipschitzKind::paper 
 void validate_design_options(const DesignOptions& options) {
   if (options.gamma.has_value() == options.theta.has_value())
     throw InputError("give exactly one of --gamma (target rate) and --theta (gain to evaluate)");
-  if (options.gamma) require_positive("gamma", *options.gamma);
-  if (options.theta) require_positive("theta", *options.theta);
+  if (options.gamma) require_in("gamma", *options.gamma, 1e-9, 1e6);
+  if (options.theta) require_in("theta", *options.theta, 1e-6, 1e8);
   if (!options.optimize_shape) {
-    require_positive("alpha", options.alpha);
-    require_positive("beta", options.beta);
+    require_in("alpha", options.alpha, 1e-6, 1e6);
+    require_in("beta", options.beta, 1e-6, 1e6);
   }
-  if (options.L_override) require_positive("L", *options.L_override);
-  if (!std::isfinite(options.certified_bounds.budget_seconds) || options.certified_bounds.budget_seconds < 0.0)
-    throw InputError(fmt::format("bound-budget = {} must be >= 0 seconds (0: until the gap is reached)",
-                                 options.certified_bounds.budget_seconds));
+  if (options.L_override) require_in("L", *options.L_override, 1e-12, 1e12);
+  const double budget = options.certified_bounds.budget_seconds;
+  if (!std::isfinite(budget) || budget < 0.0 || budget > 1e6)
+    throw InputError(fmt::format("--bound-budget = {} must lie in [0, 1e6] seconds (0: until the gap is reached)", budget));
   if (!std::isfinite(options.rate_margin) || options.rate_margin <= 0.0 || options.rate_margin >= 0.5)
     throw InputError(fmt::format("rate margin = {} must lie in (0, 0.5)", options.rate_margin));
 }
@@ -155,7 +157,12 @@ Design design_from_bounds(const Model& model, const BoundReport& bounds, const D
                               : "numeric bounds: " + certification_unavailable(model) + ", so its suprema are estimates";
   }
   const CertificateSummary& s = d.selected();
-  if (!s.certified) {
+  if (!s.certified && s.gamma > 0.0) {
+    d.warnings.push_back(fmt::format("theta = {:.6g}: the {} certificate's rate {:.6g} is positive, but no certificate "
+                                     "matrix P was found at the envelope rate {:.6g} (the Riccati solve fails at these "
+                                     "extreme gains): nothing is certified",
+                                     s.theta, to_string(d.certificate), s.gamma, s.envelope_gamma));
+  } else if (!s.certified) {
     d.warnings.push_back(fmt::format("theta = {:.6g} certifies no exponential rate with the {} certificate (gamma = {:.6g})",
                                      s.theta, to_string(d.certificate), s.gamma));
   }
@@ -164,8 +171,17 @@ Design design_from_bounds(const Model& model, const BoundReport& bounds, const D
 
 BoundReport design_bounds(const Model& model, const Eigen::VectorXd& V, const DesignOptions& options,
                           std::vector<std::string>& warnings) {
+  const auto phase = [&](const std::string& text) {
+    if (options.progress && model.dof() > 2) options.progress(text);
+  };
+  phase(fmt::format("bounds: numeric search over {} joints (NLopt DIRECT-L, then Ipopt)",
+                    model.dynamics->configuration_joints().size()));
   BoundReport bounds = compute_bounds(model, V, options.bounds);
   if (options.bound_method == BoundMethod::certified) {
+    phase(options.certified_bounds.budget_seconds > 0.0
+              ? fmt::format("bounds: interval branch and bound, budget {:g} s (--bound-budget)",
+                            options.certified_bounds.budget_seconds)
+              : std::string("bounds: interval branch and bound until the 1e-6 gap (no budget)"));
     if (const auto certified = certify_bounds(model, bounds, options.certified_bounds)) {
       apply_certified_bounds(bounds, *certified);
     } else {

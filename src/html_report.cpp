@@ -97,9 +97,20 @@ std::vector<Plot> plots(const VerificationReport& r) {
                           "'paper_scenario.csv' every ::1 using 1:{} with lines dt 2 lw 2 title 'v{} estimate'",
                           i ? ", " : "", 2 + n + i, i + 1, 2 + 3 * n + i, i + 1);
   }
+  // Say when and why the run leaves the velocity box: from then on it is outside the theorem's assumption.
+  std::string left_box;
+  for (const TrajectorySample& sample : r.paper_run) {
+    Eigen::Index joint = 0;
+    if ((sample.v.array().abs() / d.velocity_bounds.array()).maxCoeff(&joint) > 1.0) {
+      left_box = fmt::format(" — leaves the velocity box at t = {:.4g} s (|v{}| > V{} = {:g}): outside the theorem's "
+                             "assumption from then on",
+                             sample.t, joint + 1, joint + 1, d.velocity_bounds(joint));
+      break;
+    }
+  }
   out.push_back({"paper_scenario",
-                 r.example_scenario == "paper" ? "The paper's scenario: velocities and their estimates (the paper's Fig. 2)"
-                                               : "Random trial 0: velocities and their estimates",
+                 (r.example_scenario == "paper" ? "The paper's scenario: velocities and their estimates (the paper's Fig. 2)"
+                                                : "Random trial 0: velocities and their estimates") + left_box,
                  common + "set xlabel 't [s]'\nset ylabel 'rad/s'\nplot " + series + "\n"});
   out.push_back({"monte_carlo_errors", "Monte Carlo error norms against the certified envelope",
                  common + fmt::format("set logscale y\nset format y '1e%T'\nset xlabel 't [s]'\n"

@@ -69,9 +69,10 @@ void validate_velocity_bounds(const Model& model, const Eigen::VectorXd& velocit
   }
   for (int i = 0; i < velocity_bounds.size(); ++i) {
     const double V = velocity_bounds(i);
-    if (!std::isfinite(V) || V <= 0.0) {
+    // Beyond 1e6 rad/s (or m/s) nothing physical moves, and the bounds' products overflow.
+    if (!std::isfinite(V) || V <= 0.0 || V > 1e6) {
       std::ostringstream msg;
-      msg << "velocity bound V" << i + 1 << " = " << V << " must be positive and finite";
+      msg << "velocity bound V" << i + 1 << " = " << V << " (--vmax) must lie in (0, 1e6]";
       throw InputError(msg.str());
     }
   }

@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <set>
 
@@ -20,8 +21,14 @@ class FieldReader {
     throw InputError(fmt::format("{}: field '{}' {}", source_, field, what));
   }
 
+  // What the user wrote, cut so that one line stays one line (a field may hold a megabyte).
+  static std::string echo(const nlohmann::json& value) {
+    const std::string text = value.dump();
+    return text.size() <= 60 ? text : text.substr(0, 60) + "... (" + std::to_string(text.size()) + " characters)";
+  }
+
   double number(const std::string& field, const nlohmann::json& value) const {
-    if (!value.is_number()) fail(field, "must be a number, got " + value.dump());
+    if (!value.is_number()) fail(field, "must be a number, got " + echo(value));
     const double x = value.get<double>();
     if (!std::isfinite(x)) fail(field, "must be finite");
     return x;
@@ -30,7 +37,7 @@ class FieldReader {
   Eigen::VectorXd vector(const std::string& field, std::size_t length) const {
     const nlohmann::json& value = j_.at(field);
     if (!value.is_array() || value.size() != length)
-      fail(field, fmt::format("must be an array of {} numbers, got {}", length, value.dump()));
+      fail(field, fmt::format("must be an array of {} numbers, got {}", length, echo(value)));
     Eigen::VectorXd v(static_cast<Eigen::Index>(length));
     for (std::size_t i = 0; i < length; ++i) v(static_cast<Eigen::Index>(i)) = number(fmt::format("{}[{}]", field, i), value[i]);
     return v;
@@ -39,7 +46,7 @@ class FieldReader {
   Eigen::MatrixXd matrix(const std::string& field, std::size_t rows) const {
     const nlohmann::json& value = j_.at(field);
     if (!value.is_array() || value.size() != rows || !value[0].is_array() || value[0].empty())
-      fail(field, fmt::format("must be {} rows of numbers, got {}", rows, value.dump()));
+      fail(field, fmt::format("must be {} rows of numbers, got {}", rows, echo(value)));
     const std::size_t cols = value[0].size();
     Eigen::MatrixXd m(static_cast<Eigen::Index>(rows), static_cast<Eigen::Index>(cols));
     for (std::size_t i = 0; i < rows; ++i) {
@@ -66,7 +73,7 @@ Model model_from_json(const nlohmann::json& j, const std::string& source) {
   for (const char* required : {"name", "type", "pi"})
     if (!j.contains(required)) read.fail(required, "is missing");
   if (!j["name"].is_string() || j["name"].get<std::string>().empty()) read.fail("name", "must be a non-empty string");
-  if (j["type"] != "planar_2r") read.fail("type", "must be \"planar_2r\", got " + j["type"].dump());
+  if (j["type"] != "planar_2r") read.fail("type", "must be \"planar_2r\", got " + FieldReader::echo(j["type"]));
 
   Planar2RParameters parameters;
   const Eigen::VectorXd pi = read.vector("pi", 5);
@@ -95,12 +102,14 @@ Model model_from_json(const nlohmann::json& j, const std::string& source) {
 }
 
 Model load_model_file(const std::string& path, const std::vector<double>& armature) {
+  std::error_code error;
+  if (!std::filesystem::is_regular_file(path, error)) throw InputError("cannot read model file '" + path + "' (not a file)");
   std::ifstream file(path);
   if (!file) throw InputError("cannot read model file '" + path + "'");
   nlohmann::json j;
   try {
     file >> j;
-  } catch (const nlohmann::json::parse_error& e) {
+  } catch (const nlohmann::json::exception& e) {  // syntax, and numbers such as 1e999 that overflow a double
     throw InputError("model file '" + path + "' is not valid JSON: " + e.what());
   }
   if (!armature.empty()) {

@@ -199,8 +199,13 @@ std::string format_report(const Design& d) {
   } else {
     out << "  NOT CERTIFIED\n";
   }
-  for (const auto& w : d.warnings) out << "warning: " << w << "\n";
   return out.str();
+}
+
+std::string format_warnings(const Design& d) {
+  std::string out;
+  for (const auto& w : d.warnings) out += "warning: " + w + "\n";
+  return out;
 }
 
 nlohmann::json to_json(const MonteCarloReport& r) {

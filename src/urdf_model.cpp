@@ -9,6 +9,7 @@
 
 #include <Eigen/Geometry>
 
+#include <filesystem>
 #include <fstream>
 #include <functional>
 #include <map>
@@ -46,6 +47,8 @@ class FirstError final : public console_bridge::OutputHandler {
 };
 
 std::string read_file(const std::string& path) {
+  std::error_code error;
+  if (!std::filesystem::is_regular_file(path, error)) throw InputError(fmt::format("cannot read URDF file '{}' (not a file)", path));
   std::ifstream file(path);
   if (!file) throw InputError(fmt::format("cannot read URDF file '{}'", path));
   std::ostringstream text;

@@ -4,6 +4,8 @@
 #include "obsgain/certificate.hpp"
 #include "obsgain/planar_2r.hpp"
 
+#include <fmt/format.h>
+
 #include <numbers>
 
 namespace obsgain {
@@ -14,6 +16,10 @@ VerificationReport verify_design(const Model& model, const VerificationOptions& 
   report.design = design_gains(model, options.design);
   const Design& d = report.design;
   const ObserverCertificate certificate = observer_certificate(d);
+  const auto phase = [&](const std::string& text) {
+    if (options.design.progress && model.dof() > 2) options.design.progress(text);
+  };
+  phase(fmt::format("Monte Carlo: {} trials", options.monte_carlo.trials));
   report.monte_carlo = run_monte_carlo(model, d.velocity_bounds, certificate, options.monte_carlo);
 
   // Bound curves along the first joint that M and C depend on.
@@ -21,6 +27,7 @@ VerificationReport verify_design(const Model& model, const VerificationOptions& 
   const JointDomain& joint = model.joints[report.curve_joint];
   const double lo = joint.continuous ? -std::numbers::pi : joint.lower;
   const double hi = joint.continuous ? std::numbers::pi : joint.upper;
+  phase(fmt::format("bound curves: {} configurations along joint {}", options.curve_points, report.curve_joint + 1));
   for (int k = 0; k < options.curve_points; ++k) {
     Eigen::VectorXd q = d.bounds.M0.q;
     q(report.curve_joint) = lo + (hi - lo) * k / (options.curve_points - 1);
@@ -34,6 +41,7 @@ VerificationReport verify_design(const Model& model, const VerificationOptions& 
   // The paper's scenario (hanging, u = 1.5 sin 100t) belongs to its two-link family; another arm would leave the
   // velocity box within milliseconds. Other robots show their first random trial (computed-torque tracking
   // when fully actuated).
+  phase("trajectories for the plots");
   MonteCarloOptions example = options.monte_carlo;
   const bool paper_family = dynamic_cast<const Planar2RDynamics*>(model.dynamics.get()) != nullptr;
   example.scenario = paper_family ? Scenario::paper : Scenario::random;

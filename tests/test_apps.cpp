@@ -4,6 +4,7 @@
 
 #include <array>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
@@ -78,6 +79,36 @@ TEST(DesignGainsApp, RefusesBadInputWithOneLineAndExit2) {
   expect_refused("--gamma 1 --optimize-shape --alpha 2", "optimize-shape");
   expect_refused("--gamma 1 --no-such-flag", "no-such-flag");
   expect_refused("--robot /nonexistent/arm.json --gamma 1", "cannot read model file '/nonexistent/arm.json'");
+}
+
+// Values that used to hang, overflow or be read wrongly: each refused with one line naming it.
+TEST(DesignGainsApp, RefusesValuesOutsideTheAdmissibleRanges) {
+  expect_refused("--gamma 1e300", "--gamma = 1e+300 must lie in");
+  expect_refused("--theta 1e300", "--theta = 1e+300 must lie in");
+  expect_refused("--theta 1e-300", "--theta = 1e-300 must lie in");
+  expect_refused("--gamma 0x10", "gamma = '0x10' is not a decimal number");
+  expect_refused("--gamma 1 --vmax 1e300,1e300", "V1 = 1e+300 (--vmax) must lie in");
+  expect_refused("--gamma 1 --bound-budget -1", "--bound-budget = -1");
+  const std::string directory = ::testing::TempDir() + "/obsgain_directory.json";
+  std::filesystem::create_directories(directory);
+  expect_refused("--robot " + directory + " --gamma 1", "(not a file)");
+  expect_refused("--design " + directory, "(not a file)", "monte-carlo");
+  const std::string overflow = ::testing::TempDir() + "/obsgain_overflow.json";
+  std::ofstream(overflow) << R"({"name": "x", "type": "planar_2r", "pi": [1e999, 0.01, 0.009, 0.2, 0.06]})";
+  expect_refused("--robot " + overflow + " --gamma 1", overflow);
+  const std::string huge = ::testing::TempDir() + "/obsgain_huge.json";
+  {
+    std::ofstream file(huge);
+    file << R"({"name": "x", "type": "planar_2r", "pi": [)";
+    for (int i = 0; i < 100000; ++i) file << (i ? ", " : "") << "0.01";
+    file << "]}";
+  }
+  const AppRun r = run("design-gains", "--robot " + huge + " --gamma 1");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_LT(r.err.size(), 300u) << "the echoed value is cut";
+  expect_refused("--theta 200 --rtol 2", "--rtol = 2 must lie in", "monte-carlo");
+  expect_refused("--theta 200 --horizon 1e9", "--horizon = 1e9 must lie in", "monte-carlo");
+  expect_refused("--theta 200 --threads 10000", "--threads = 10000", "monte-carlo");
 }
 
 TEST(DesignGainsApp, JsonOnStdoutAndTableOtherwise) {

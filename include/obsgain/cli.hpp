@@ -21,6 +21,7 @@ struct DesignArguments {
   std::string certificate = "tight";
   std::string bounds = "certified";
   bool optimize_shape = false;
+  bool quiet = false;
 };
 
 void add_design_options(CLI::App& app, DesignArguments& arguments);

@@ -7,6 +7,7 @@
 #include "obsgain/lyapunov.hpp"
 #include "obsgain/model.hpp"
 
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -35,6 +36,9 @@ struct DesignOptions {
   BoundMethod bound_method = BoundMethod::certified;
   BoundOptions bounds;
   CertifiedOptions certified_bounds;
+  // Told the start of each phase that can take seconds (robots of more than two joints); the apps print it
+  // on stderr unless --quiet.
+  std::function<void(const std::string&)> progress;
 };
 
 // One certificate evaluated for the design, so that paper and tight can be shown side by side.

@@ -32,6 +32,8 @@ std::vector<ComparisonRow> certificate_comparison(const Design& design);
 // The design as a table a control engineer reads: bounds and where they sit, S, both certificates side by
 // side, the chosen gains, and warnings.
 std::string format_report(const Design& design);
+// The design's warnings, one "warning: ..." line each (the apps print them on stderr).
+std::string format_warnings(const Design& design);
 
 nlohmann::json to_json(const MonteCarloReport& report);
 std::string format_report(const MonteCarloReport& report);
