@@ -21,6 +21,7 @@ int main(int argc, char** argv) {
     if (!monte_carlo.design_file.empty()) throw obsgain::InputError("verify-bounds computes its design: no --design");
     obsgain::VerificationOptions options;
     options.design = obsgain::to_design_options(design);
+    for (int i = 0; i < argc; ++i) options.command_line += (i ? " " : "") + std::string(argv[i]);
     options.monte_carlo = obsgain::to_monte_carlo_options(monte_carlo);
     options.monte_carlo.progress = isatty(STDERR_FILENO) != 0;
     const obsgain::Model model = obsgain::load_robot(obsgain::to_robot_source(design));

@@ -14,8 +14,6 @@
 
 namespace obsgain {
 
-std::string version() { return "obsgain " OBSGAIN_VERSION; }
-
 double parse_number(const std::string& name, const std::string& text) {
   const char* begin = text.c_str();
   char* end = nullptr;

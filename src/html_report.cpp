@@ -150,11 +150,35 @@ std::string html(const VerificationReport& r, const std::vector<Plot>& plot_list
   std::ostringstream h;
   h << "<!DOCTYPE html>\n<html lang='en'><head><meta charset='utf-8'><title>obsgain verification: " << escape(r.robot)
     << "</title>\n<style>body{font-family:sans-serif;max-width:60em;margin:2em auto;line-height:1.4;color:#222}"
-       "table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #bbb;padding:.25em .6em;text-align:right}"
+       "table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #bbb;padding:.25em .6em;text-align:right;white-space:nowrap}"
        "th{background:#eef}td:first-child,th:first-child{text-align:left}.ok{color:#060;font-weight:bold}"
        ".bad{color:#a00;font-weight:bold}.warn{background:#fff4d0;padding:.5em}figure{margin:1.5em 0}"
        "figcaption{font-style:italic}</style></head><body>\n";
   h << "<h1>Observer verification report: " << escape(r.robot) << "</h1>\n";
+
+  // The verdict first: what is proven, with which gains, on which bounds, and what the simulations said.
+  const CertificateSummary& s = d.selected();
+  const bool proven = s.certified && d.proven();
+  double worst_gap = 0.0;
+  if (b.certified)
+    for (const BoundBracket* k : {&b.M0_bracket, &b.B_bracket, &b.L_joint_bracket})
+      worst_gap = std::max(worst_gap, (k->upper - k->lower) / k->upper);
+  h << "<div style='border:2px solid " << (proven ? "#060" : "#a00") << ";padding:.5em 1em;margin:1em 0'>\n<p>"
+    << (proven ? fmt::format("<span class='ok'>CERTIFIED</span>: ||e(t)|| ≤ {:.6g} ||e(0)|| e<sup>−{:.6g} t</sup> for every "
+                             "initial observer error, while |v<sub>i</sub>(t)| ≤ V<sub>i</sub>.",
+                             s.k, s.envelope_gamma)
+               : s.certified ? "<span class='bad'>NOT PROVEN</span>: " + escape(d.not_proven_reason) + "."
+                             : std::string("<span class='bad'>NOT CERTIFIED</span>: the chosen gain certifies no rate."))
+    << "</p>\n<p>Gains k1 = " << number(s.k1) << ", k2 = " << number(s.k2) << " (θ = " << number(s.theta)
+    << ", α = " << number(d.alpha) << ", β = " << number(d.beta) << "), " << to_string(d.certificate)
+    << " certificate on L = " << number(d.L_used) << " (" << escape(d.L_source) << "). Bounds: "
+    << (b.certified ? fmt::format("proven by interval branch and bound, largest relative gap {:.1e}", worst_gap)
+                    : std::string("numeric estimates (not proven)"))
+    << ".</p>\n<p>Monte Carlo: " << mc.trials << " trials, "
+    << (mc.certificate_held() ? "<span class='ok'>no violation of the envelope or the Lyapunov level</span>"
+                              : "<span class='bad'>violations found</span>")
+    << ", " << mc.assumption_violations << " left the velocity box.</p>\n<p style='font-size:90%'>Command: <code>"
+    << escape(r.command_line) << "</code><br>" << escape(version()) << ", " << escape(r.date) << "</p>\n</div>\n";
 
   h << "<h2>1. Model and assumption</h2>\n<p>Robot <b>" << escape(r.robot) << "</b>, " << d.dof
     << " joints. Saturated Luenberger observer (Celani) with gains k1 = θα, k2 = θ²β. "
@@ -176,7 +200,9 @@ std::string html(const VerificationReport& r, const std::vector<Plot>& plot_list
     std::string where = "q = " + format_vector(m.q);
     if (m.velocity_vertex.size()) where += ", v = " + format_vector(m.velocity_vertex);
     if (m.saturation_pattern.size()) where += ", D = diag" + format_vector(m.saturation_pattern);
-    h << table_row({name, number(b.certified ? k.lower : m.value), b.certified ? number(k.upper) : "—",
+    // Both ends to the same ten digits, so that they can be compared digit by digit.
+    const auto digits = [](double x) { return fmt::format("{:.10g}", x); };
+    h << table_row({name, digits(b.certified ? k.lower : m.value), b.certified ? digits(k.upper) : "—",
                     b.certified ? fmt::format("{:.1e}", (k.upper - k.lower) / k.upper) : "—", where,
                     number(m.global_value), number(m.polish_value), b.certified ? std::to_string(k.boxes) : "—"});
   };

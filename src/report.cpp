@@ -202,6 +202,8 @@ std::string format_report(const Design& d) {
   return out.str();
 }
 
+std::string version() { return "obsgain " OBSGAIN_VERSION; }
+
 std::string format_warnings(const Design& d) {
   std::string out;
   for (const auto& w : d.warnings) out += "warning: " + w + "\n";

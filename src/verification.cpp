@@ -6,6 +6,7 @@
 
 #include <fmt/format.h>
 
+#include <ctime>
 #include <numbers>
 
 namespace obsgain {
@@ -13,6 +14,13 @@ namespace obsgain {
 VerificationReport verify_design(const Model& model, const VerificationOptions& options) {
   VerificationReport report;
   report.robot = model.name;
+  report.command_line = options.command_line;
+  const std::time_t now = std::time(nullptr);
+  std::tm utc{};
+  gmtime_r(&now, &utc);
+  char date[32];
+  std::strftime(date, sizeof date, "%Y-%m-%d %H:%M UTC", &utc);
+  report.date = date;
   report.design = design_gains(model, options.design);
   const Design& d = report.design;
   const ObserverCertificate certificate = observer_certificate(d);

@@ -31,6 +31,9 @@ std::vector<ComparisonRow> certificate_comparison(const Design& design);
 
 // The design as a table a control engineer reads: bounds and where they sit, S, both certificates side by
 // side, the chosen gains, and warnings.
+// "obsgain X.Y.Z" (--version, and the report's verdict box).
+std::string version();
+
 std::string format_report(const Design& design);
 // The design's warnings, one "warning: ..." line each (the apps print them on stderr).
 std::string format_warnings(const Design& design);

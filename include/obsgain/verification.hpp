@@ -13,6 +13,7 @@ namespace obsgain {
 struct VerificationOptions {
   DesignOptions design;
   MonteCarloOptions monte_carlo;  // defaults below: 200 trials, horizon 1 s
+  std::string command_line;       // shown in the report's verdict box
   int curve_points = 721;         // samples of the bound curves over the searched joint
   int error_traces = 12;          // Monte Carlo trials drawn in the error plot
   VerificationOptions() { monte_carlo.trials = 200; }
@@ -37,6 +38,8 @@ struct VerificationReport {
   MonteCarloReport monte_carlo;
   std::vector<BoundCurvePoint> bound_curve;
   std::vector<TrajectorySample> paper_run;             // trial 0 of example_scenario (for the Pendubot: Fig. 2)
+  std::string command_line;  // as the user typed it (the app fills it), for the report's verdict box
+  std::string date;          // UTC, ISO 8601
   std::string example_scenario;                        // "paper" for the paper's two-link family, else "random"
   std::vector<std::vector<TrajectorySample>> error_traces;  // Monte Carlo trials for the error plot
   std::vector<RateCurvePoint> rate_curve;
