@@ -17,4 +17,6 @@ ctest --test-dir build-asan --output-on-failure -j"$jobs" -E installed_package_c
 
 if [[ -x ../shared/contract-check ]]; then
   ../shared/contract-check build
+else
+  echo "test.sh: ../shared/contract-check is not beside this checkout: the command-line contract was not checked" >&2
 fi
