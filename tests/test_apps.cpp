@@ -1,4 +1,5 @@
 // The apps as a user runs them: exit codes, one-line errors on stderr, JSON on stdout.
+#include "test_files.hpp"
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -12,6 +13,9 @@
 #include <unistd.h>
 
 namespace {
+
+using obsgain_test::read_text;
+using obsgain_test::write_temp_file;
 
 struct AppRun {
   int exit_code;
@@ -48,13 +52,6 @@ void expect_refused(const std::string& arguments, const std::string& names, cons
 nlohmann::json read_json(const std::string& path) {
   std::ifstream file(path);
   return nlohmann::json::parse(file);
-}
-
-std::string read_text(const std::string& path) {
-  std::ifstream file(path);
-  std::stringstream text;
-  text << file.rdbuf();
-  return text.str();
 }
 
 TEST(DesignGainsApp, RefusesBadInputWithOneLineAndExit2) {

@@ -2,6 +2,7 @@
 // URDFs. Each mutant of a valid seed (bytes flipped, deleted, duplicated, numbers replaced by extreme ones,
 // the text cut short) must load or be refused with an InputError naming the problem: never another exception,
 // a crash (the suite also runs under AddressSanitizer), or a hang.
+#include "test_files.hpp"
 #include "obsgain/design.hpp"
 #include "obsgain/planar_2r.hpp"
 #include "obsgain/report.hpp"
@@ -16,14 +17,10 @@
 
 namespace {
 
-const std::string examples = OBSGAIN_EXAMPLES_DIR;
+using obsgain_test::read_text;
+using obsgain_test::write_temp_file;
 
-std::string read_text(const std::string& path) {
-  std::ifstream file(path);
-  std::ostringstream text;
-  text << file.rdbuf();
-  return text.str();
-}
+const std::string examples = OBSGAIN_EXAMPLES_DIR;
 
 std::string mutate(std::string text, std::mt19937_64& rng) {
   static const std::vector<std::string> tokens = {"1e999", "-1e999", "nan", "0", "-1", "1e308", "\"", "<", ">", "}",

@@ -2,6 +2,7 @@
 // implementation; their interval and interval-derivative enclosures against the double values and finite
 // differences at random points of random boxes; and the URDF quirks of real arms (fixed frames, fixed side
 // branches, grippers with mimic fingers, Drake transmissions).
+#include "test_files.hpp"
 #include "obsgain/certified_bounds.hpp"
 #include "obsgain/design.hpp"
 #include "obsgain/robots.hpp"
@@ -21,20 +22,10 @@
 
 namespace {
 
+using obsgain_test::read_text;
+using obsgain_test::write_temp_file;
+
 const std::string examples = OBSGAIN_EXAMPLES_DIR;
-
-std::string read_text(const std::string& path) {
-  std::ifstream file(path);
-  std::ostringstream text;
-  text << file.rdbuf();
-  return text.str();
-}
-
-std::string write_urdf(const std::string& name, const std::string& text) {
-  const std::string path = ::testing::TempDir() + "/" + name;
-  std::ofstream(path) << text;
-  return path;
-}
 
 // KDL's chain from the file's root to `tip`, gravity -9.81 z.
 struct KdlReference {
@@ -226,8 +217,8 @@ std::string hand_summed_urdf() {
 }
 
 TEST(UrdfQuirks, FixedFramesSideBranchesAndMimicFingersAreLumpedIntoOneBody) {
-  const obsgain::Model pieces = obsgain::load_robot({write_urdf("pieces.urdf", kPiecesUrdf), "", "", {}, {0.0, 0.0}});
-  const obsgain::Model summed = obsgain::load_robot({write_urdf("summed.urdf", hand_summed_urdf()), "", "", {}, {0.0, 0.0}});
+  const obsgain::Model pieces = obsgain::load_robot({write_temp_file("pieces.urdf", kPiecesUrdf), "", "", {}, {0.0, 0.0}});
+  const obsgain::Model summed = obsgain::load_robot({write_temp_file("summed.urdf", hand_summed_urdf()), "", "", {}, {0.0, 0.0}});
   ASSERT_EQ(pieces.dof(), 2);  // the fingers are a gripper: locked, not chain joints
   for (const Eigen::Vector2d q : {Eigen::Vector2d(0.3, -1.0), Eigen::Vector2d(-2.0, 1.7)}) {
     Eigen::MatrixXd Mp(2, 2), Ms(2, 2);
@@ -247,7 +238,7 @@ TEST(UrdfQuirks, FixedFramesSideBranchesAndMimicFingersAreLumpedIntoOneBody) {
 }
 
 TEST(UrdfQuirks, DrakeTransmissionsPutReflectedRotorInertiaOnTheDiagonal) {
-  const std::string path = write_urdf("pieces.urdf", kPiecesUrdf);
+  const std::string path = write_temp_file("pieces.urdf", kPiecesUrdf);
   const obsgain::Model with = obsgain::load_robot({path});
   const obsgain::Model without = obsgain::load_robot({path, "", "", {}, {0.0, 0.0}});
   ASSERT_EQ(with.armature.size(), 2);
@@ -272,7 +263,7 @@ TEST(UrdfQuirks, DefaultChainIgnoresFixedLeavesAndRefusesSeveralArms) {
   std::string frames = kPiecesUrdf;
   frames.replace(frames.find("</robot>"), 8, R"(<joint name="tool0_joint" type="fixed"><parent link="hand"/><child link="tool0"/>
     <origin xyz="0 0 0.1"/></joint><link name="tool0"/></robot>)");
-  EXPECT_EQ(obsgain::load_robot({write_urdf("frames.urdf", frames)}).dof(), 2);
+  EXPECT_EQ(obsgain::load_robot({write_temp_file("frames.urdf", frames)}).dof(), 2);
   // Two long movable branches are two arms: the user must choose, and the error names the candidates.
   std::string two_arms = R"(<?xml version="1.0"?><robot name="dual"><link name="torso"/>)";
   for (const char* side : {"left", "right"}) {
@@ -288,14 +279,14 @@ TEST(UrdfQuirks, DefaultChainIgnoresFixedLeavesAndRefusesSeveralArms) {
   }
   two_arms += "</robot>";
   try {
-    obsgain::load_robot({write_urdf("two_arms.urdf", two_arms)});
+    obsgain::load_robot({write_temp_file("two_arms.urdf", two_arms)});
     ADD_FAILURE() << "two arms need --tip-link";
   } catch (const obsgain::InputError& e) {
     const std::string what = e.what();
     EXPECT_NE(what.find("--tip-link"), std::string::npos) << what;
     EXPECT_NE(what.find("left_4, right_4"), std::string::npos) << what;
   }
-  EXPECT_EQ(obsgain::load_robot({write_urdf("two_arms.urdf", two_arms), "", "left_4", {}}).dof(), 4);
+  EXPECT_EQ(obsgain::load_robot({write_temp_file("two_arms.urdf", two_arms), "", "left_4", {}}).dof(), 4);
 }
 
 }  // namespace
@@ -308,7 +299,7 @@ TEST(UrdfQuirks, CadLimitsAreRefusedNamingTheJointAndTheOverride) {
   std::string cad = kPiecesUrdf;
   const std::string limit = R"(<limit lower="-2" upper="2" effort="10" velocity="3"/>)";
   cad.replace(cad.find(limit), limit.size(), R"(<limit lower="0" upper="0" effort="0" velocity="0"/>)");
-  const std::string path = write_urdf("cad.urdf", cad);
+  const std::string path = write_temp_file("cad.urdf", cad);
   try {
     obsgain::load_robot({path});
     ADD_FAILURE() << "limits 0/0 must be refused";

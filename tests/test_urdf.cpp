@@ -1,6 +1,7 @@
 // Robots from URDF: the Pendubot written as a URDF against the built-in model, the physics of a spatial
 // arm against an identity it must satisfy, the bounds against a brute-force grid, and malformed files.
 // (KDL cross-checks and the quirks of real arms' files: test_serial_chain.cpp.)
+#include "test_files.hpp"
 #include "obsgain/bounds.hpp"
 #include "obsgain/montecarlo.hpp"
 #include "obsgain/planar_2r.hpp"
@@ -11,6 +12,9 @@
 #include <fstream>
 
 namespace {
+
+using obsgain_test::read_text;
+using obsgain_test::write_temp_file;
 
 const std::string examples = OBSGAIN_EXAMPLES_DIR;
 
@@ -143,12 +147,6 @@ TEST(Urdf, MonteCarloTracksReferencesWithComputedTorque) {
   EXPECT_GT(speed, 0.05);
 }
 
-std::string write_urdf(const std::string& name, const std::string& text) {
-  const std::string path = ::testing::TempDir() + "/" + name;
-  std::ofstream(path) << text;
-  return path;
-}
-
 const std::string two_links = R"(<?xml version="1.0"?>
 <robot name="r">
   <link name="base"/>
@@ -176,26 +174,26 @@ void expect_refused(const obsgain::RobotSource& source, const std::string& names
 }
 
 TEST(Urdf, MalformedFilesAreRefusedNamingTheProblem) {
-  const std::string good = write_urdf("good.urdf", with_second_link(
+  const std::string good = write_temp_file("good.urdf", with_second_link(
       R"(<inertial><origin xyz="0.1 0 0"/><mass value="0.5"/><inertia ixx="0.001" ixy="0" ixz="0" iyy="0.001" iyz="0" izz="0.001"/></inertial>)"));
   EXPECT_EQ(obsgain::load_robot({good}).dof(), 2);
 
   expect_refused({"/nonexistent/arm.urdf"}, "cannot read URDF file '/nonexistent/arm.urdf'");
-  expect_refused({write_urdf("broken.urdf", "<robot name='r'><link name='a'></robot>")}, "broken XML at line 1");
-  expect_refused({write_urdf("not_urdf.urdf", "<robot name='r'><joint name='j' type='revolute'/></robot>")},
+  expect_refused({write_temp_file("broken.urdf", "<robot name='r'><link name='a'></robot>")}, "broken XML at line 1");
+  expect_refused({write_temp_file("not_urdf.urdf", "<robot name='r'><joint name='j' type='revolute'/></robot>")},
                  "not a valid URDF");
   expect_refused({good, "base", "forearm", {}}, "no link 'forearm'");
   expect_refused({good, "l2", "base", {}}, "no chain from 'l2' down to 'base'");
   expect_refused({good, "", "", {1}}, "the chain has 2 joints, got 1 flags");
   expect_refused({good, "", "", {1, 2}}, "flag 2 = 2 must be 0 or 1");
   // The last link carries nothing: joint j2 moves no inertia and M(q) is singular.
-  expect_refused({write_urdf("massless.urdf", with_second_link(""))}, "joint 'j2' moves no mass or inertia");
-  expect_refused({write_urdf("zero_mass.urdf", with_second_link(
+  expect_refused({write_temp_file("massless.urdf", with_second_link(""))}, "joint 'j2' moves no mass or inertia");
+  expect_refused({write_temp_file("zero_mass.urdf", with_second_link(
                      R"(<inertial><mass value="0"/><inertia ixx="0" ixy="0" ixz="0" iyy="0" iyz="0" izz="0"/></inertial>)"))},
                  "joint 'j2' moves no mass or inertia");
   std::string unlimited = two_links;
   unlimited.replace(unlimited.find(R"(name="j2" type="continuous")"), 27, R"(name="j2" type="revolute")");
-  expect_refused({write_urdf("unlimited.urdf", unlimited)}, "not a valid URDF: Joint [j2] is of type REVOLUTE but it does not specify limits");
+  expect_refused({write_temp_file("unlimited.urdf", unlimited)}, "not a valid URDF: Joint [j2] is of type REVOLUTE but it does not specify limits");
   expect_refused({examples + "/pendubot.json", "", "", {1, 0}}, "apply to URDF robots only");
 }
 
