@@ -9,10 +9,16 @@
 int main(int argc, char** argv) {
   CLI::App app{"Design certified velocity-observer gains (saturated Luenberger observer)", "design-gains"};
   app.set_version_flag("--version", obsgain::version());
+  app.footer("Exit codes: 0 success; 1 the design does not certify the requested rate (or rests on bounds that are not\n"
+      "proven while --bounds certified was asked); 2 bad input (one line on stderr naming it).\n"
+      "Examples:\n  build/design-gains --robot pendubot --gamma 1.27\n"
+      "  build/design-gains --robot examples/arm3.urdf --gamma 5 --json design.json");
   obsgain::DesignArguments arguments;
   obsgain::add_design_options(app, arguments);
   std::string json_path;
-  auto* json = app.add_option("--json", json_path, "write JSON to stdout (no FILE, or -), or to FILE")->expected(0, 1);
+  auto* json = app.add_option("--json", json_path, "write JSON to stdout (no FILE, or -), or to FILE")
+                   ->expected(0, 1)
+                   ->type_name("[FILE]");
   return obsgain::run_app(app, argc, argv, [&] {
     const obsgain::DesignOptions options = obsgain::to_design_options(arguments);
     const obsgain::Model model = obsgain::load_robot(obsgain::to_robot_source(arguments));

@@ -9,14 +9,19 @@
 int main(int argc, char** argv) {
   CLI::App app{"Validate a certified observer design by Monte Carlo simulation", "monte-carlo"};
   app.set_version_flag("--version", obsgain::version());
+  app.footer("Exit codes: 0 no trajectory left the certified envelope; 1 a violation was found; 2 bad input.\n"
+      "Examples:\n  build/monte-carlo --robot pendubot --gamma 1.27 --trials 1000\n"
+      "  build/monte-carlo --design design.json --trials 200 --seed 2");
   obsgain::DesignArguments design;
   obsgain::add_design_options(app, design);
   obsgain::MonteCarloArguments arguments;
   obsgain::add_monte_carlo_options(app, arguments);
   std::string json_path, csv_path, trajectory_path;
-  auto* json = app.add_option("--json", json_path, "write JSON to stdout (no FILE, or -), or to FILE")->expected(0, 1);
-  app.add_option("--csv", csv_path, "write one row per trial to FILE");
-  app.add_option("--trajectory", trajectory_path, "write the time series of trial 0 to FILE");
+  auto* json = app.add_option("--json", json_path, "write JSON to stdout (no FILE, or -), or to FILE")
+                   ->expected(0, 1)
+                   ->type_name("[FILE]");
+  app.add_option("--csv", csv_path, "write one row per trial to FILE")->type_name("FILE");
+  app.add_option("--trajectory", trajectory_path, "write the time series of trial 0 to FILE")->type_name("FILE");
   return obsgain::run_app(app, argc, argv, [&] {
     obsgain::MonteCarloOptions options = obsgain::to_monte_carlo_options(arguments);
     options.progress = isatty(STDERR_FILENO) != 0;

@@ -10,13 +10,16 @@
 int main(int argc, char** argv) {
   CLI::App app{"Write a bound-verification report (HTML, JSON, CSV, plots)", "verify-bounds"};
   app.set_version_flag("--version", obsgain::version());
+  app.footer("Exit codes: 0 report written and no violation; 1 a Monte Carlo violation; 2 bad input.\n"
+      "Examples:\n  build/verify-bounds --robot pendubot --gamma 1.27 --out report/\n"
+      "  build/verify-bounds --robot examples/arm3.urdf --gamma 5 --trials 50 --bound-budget 15 --out report3/");
   obsgain::DesignArguments design;
   obsgain::add_design_options(app, design);
   obsgain::MonteCarloArguments monte_carlo;
   monte_carlo.trials = "200";
   obsgain::add_monte_carlo_options(app, monte_carlo);
   std::string out;
-  app.add_option("--out", out, "output directory")->required();
+  app.add_option("--out", out, "output directory")->required()->type_name("DIRECTORY");
   return obsgain::run_app(app, argc, argv, [&] {
     if (!monte_carlo.design_file.empty()) throw obsgain::InputError("verify-bounds computes its design: no --design");
     obsgain::VerificationOptions options;

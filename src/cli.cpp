@@ -36,37 +36,57 @@ Eigen::VectorXd parse_number_list(const std::string& name, const std::string& te
 }
 
 void add_design_options(CLI::App& app, DesignArguments& a) {
+  const std::size_t before = app.get_options().size();
   app.add_option("--robot", a.robot, "built-in robot name (pendubot), model file (*.json) or URDF (*.urdf)")
-      ->capture_default_str();
-  app.add_option("--base-link", a.base_link, "URDF: the chain's base link (default: the root)");
-  app.add_option("--tip-link", a.tip_link, "URDF: the chain's tip link (default: the single leaf)");
-  app.add_option("--actuated", a.actuated, "URDF: 0/1 per joint, e.g. 1,0 for a Pendubot (default: all)");
+      ->capture_default_str()
+      ->type_name("NAME|FILE");
+  app.add_option("--base-link", a.base_link, "URDF: the chain's base link (default: the root)")
+      ->type_name("LINK");
+  app.add_option("--tip-link", a.tip_link, "URDF: the chain's tip link (default: the arm's movable path, grippers locked)")
+      ->type_name("LINK");
+  app.add_option("--actuated", a.actuated, "URDF: 0/1 per joint, e.g. 1,0 for a Pendubot (default: all)")
+      ->type_name("0/1,...");
   app.add_option("--armature", a.armature,
-                 "URDF or model file: reflected rotor inertia per joint a1,...,an [kg m^2] (default: the file's)");
+                 "URDF or model file: reflected rotor inertia per joint a1,...,an [kg m^2] (default: the file's)")
+      ->type_name("KG_M2,...");
   app.add_option("--joint-limits", a.joint_limits,
-                 "URDF: joint ranges lo1:hi1,lo2:hi2,... [rad or m], c for the full circle (default: the file's <limit>)");
-  app.add_option("--vmax", a.vmax, "velocity bounds V1,...,Vn [rad/s] (default: the model's)");
-  app.add_option("--gamma", a.gamma, "target convergence rate [1/s]: theta is the smallest gain certifying it");
-  app.add_option("--theta", a.theta, "evaluate this gain theta and report the certified rate");
-  app.add_option("--alpha", a.alpha, "observer shape alpha (default 1)");
-  app.add_option("--beta", a.beta, "observer shape beta (default 1)");
+                 "URDF: joint ranges lo1:hi1,lo2:hi2,... [rad or m], c for the full circle (default: the file's <limit>)")
+      ->type_name("LO:HI|c,...");
+  app.add_option("--vmax", a.vmax, "velocity bounds V1,...,Vn [rad/s] (default: the model's)")
+      ->type_name("RAD_S,...");
+  app.add_option("--gamma", a.gamma, "target convergence rate [1/s]: theta is the smallest gain certifying it (give exactly one of --gamma, --theta)")
+      ->type_name("RATE");
+  app.add_option("--theta", a.theta, "evaluate this gain theta and report the certified rate (exactly one of --gamma, --theta)")
+      ->type_name("GAIN");
+  app.add_option("--alpha", a.alpha, "observer shape alpha (default 1)")
+      ->type_name("NUMBER");
+  app.add_option("--beta", a.beta, "observer shape beta (default 1)")
+      ->type_name("NUMBER");
   app.add_flag("--optimize-shape", a.optimize_shape, "beta = 1 and the best alpha for the certificate");
   app.add_option("--lipschitz", a.lipschitz, "Lipschitz constant: joint (design notes 4) or paper")
       ->check(CLI::IsMember({"joint", "paper"}))
-      ->capture_default_str();
-  app.add_option("--L", a.L, "override the Lipschitz constant (e.g. the paper's 54.01)");
+      ->capture_default_str()
+      ->type_name("joint|paper");
+  app.add_option("--L", a.L, "override the Lipschitz constant (e.g. the paper's 54.01)")
+      ->type_name("NUMBER");
   app.add_option("--certificate", a.certificate, "tight (bounded-real lemma) or paper (Theorem 1)")
       ->check(CLI::IsMember({"tight", "paper"}))
-      ->capture_default_str();
+      ->capture_default_str()
+      ->type_name("tight|paper");
   app.add_option("--bounds", a.bounds, "certified (interval branch and bound) or numeric (optimisers only)")
       ->check(CLI::IsMember({"certified", "numeric"}))
-      ->capture_default_str();
+      ->capture_default_str()
+      ->type_name("certified|numeric");
   app.add_option("--bound-budget", a.bound_budget,
                  "certified bounds: wall-time budget in seconds for the interval search (default 120; 0: until the "
-                 "gap target); the design uses the proven upper ends reached, whatever the gap");
+                 "gap target); the design uses the proven upper ends reached, whatever the gap")
+      ->type_name("SECONDS");
   app.add_flag("--quiet", a.quiet, "no progress lines on stderr");
   app.add_option("--rate-margin", a.rate_margin,
-                 "tight certificate: P is computed at gamma_sup (1 - margin) (default 0.01)");
+                 "tight certificate: P is computed at gamma_sup (1 - margin) (default 0.01)")
+      ->type_name("FRACTION");
+  const auto options = app.get_options();
+  a.given.assign(options.begin() + static_cast<std::ptrdiff_t>(before), options.end());
 }
 
 DesignOptions to_design_options(const DesignArguments& a) {
@@ -132,19 +152,28 @@ RobotSource to_robot_source(const DesignArguments& a) {
 }
 
 void add_monte_carlo_options(CLI::App& app, MonteCarloArguments& a) {
-  app.add_option("--design", a.design_file, "validate the design saved by design-gains --json FILE");
-  app.add_option("--trials", a.trials, "number of trials")->capture_default_str();
-  app.add_option("--seed", a.seed, "random seed; a trial's draw depends on (seed, trial index) only")->capture_default_str();
-  app.add_option("--horizon", a.horizon, "simulated time per trial [s]")->capture_default_str();
-  app.add_option("--threads", a.threads, "worker threads (0: all cores)")->capture_default_str();
-  app.add_option("--rtol", a.rtol, "integrator relative tolerance")->capture_default_str();
-  app.add_option("--atol", a.atol, "integrator absolute tolerance")->capture_default_str();
+  app.add_option("--design", a.design_file, "validate the design saved by design-gains --json FILE")
+      ->type_name("FILE");
+  app.add_option("--trials", a.trials, "number of trials")->capture_default_str()
+      ->type_name("COUNT");
+  app.add_option("--seed", a.seed, "random seed; a trial's draw depends on (seed, trial index) only")->capture_default_str()
+      ->type_name("COUNT");
+  app.add_option("--horizon", a.horizon, "simulated time per trial [s]")->capture_default_str()
+      ->type_name("SECONDS");
+  app.add_option("--threads", a.threads, "worker threads (0: all cores)")->capture_default_str()
+      ->type_name("COUNT");
+  app.add_option("--rtol", a.rtol, "integrator relative tolerance")->capture_default_str()
+      ->type_name("NUMBER");
+  app.add_option("--atol", a.atol, "integrator absolute tolerance")->capture_default_str()
+      ->type_name("NUMBER");
   app.add_option("--scenario", a.scenario, "paper (lower equilibrium, u = 1.5 sin 100t) or random (computed-torque tracking when fully actuated)")
       ->check(CLI::IsMember({"paper", "random"}))
-      ->capture_default_str();
+      ->capture_default_str()
+      ->type_name("paper|random");
   app.add_option("--initial-errors", a.initial_errors, "practical (the paper's Remark), global, or both")
       ->check(CLI::IsMember({"practical", "global", "both"}))
-      ->capture_default_str();
+      ->capture_default_str()
+      ->type_name("practical|global|both");
 }
 
 namespace {
@@ -194,6 +223,10 @@ ValidationTarget load_validation_target(const DesignArguments& design, const std
   std::error_code error;
   if (!std::filesystem::is_regular_file(design_file, error))
     throw InputError("cannot read design file '" + design_file + "' (not a file)");
+  for (const CLI::Option* option : design.given)
+    if (option->count() > 0 && option->get_name() != "--quiet")
+      throw InputError("--design " + design_file + " fixes the robot and the gains: " + option->get_name() +
+                       " cannot be given with it");
   std::ifstream file(design_file);
   if (!file) throw InputError("cannot read design file '" + design_file + "'");
   nlohmann::json j;
@@ -204,6 +237,10 @@ ValidationTarget load_validation_target(const DesignArguments& design, const std
   }
   SavedDesign saved = saved_design_from_json(j);
   Model model = load_robot(saved.robot);
+  if (!saved.fingerprint.empty() && saved.fingerprint != model.fingerprint)
+    throw InputError("design file '" + design_file + "' was made for another version of '" + saved.robot.robot +
+                     "' (fingerprint " + saved.fingerprint + ", the file now " + model.fingerprint +
+                     "): run design-gains again");
   validate_velocity_bounds(model, saved.velocity_bounds);
   return {std::move(model), saved.velocity_bounds, saved.certificate};
 }

@@ -215,6 +215,7 @@ Design design_gains(const Model& model, const DesignOptions& options) {
   Design d = design_from_bounds(model, bounds, options);
   d.notes = model.notes;
   d.armature = model.armature;
+  d.robot_fingerprint = model.fingerprint;
   d.warnings.insert(d.warnings.begin(), warnings.begin(), warnings.end());
   d.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return d;

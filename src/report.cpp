@@ -129,6 +129,7 @@ nlohmann::json to_json(const Design& d) {
   if (d.bounds.certified) j["bounds"]["brackets"] = certified_json(d.bounds);
   j["notes"] = d.notes;
   j["robot"]["armature"] = to_json(d.armature);
+  j["robot"]["fingerprint"] = d.robot_fingerprint;
   if (!d.robot_source.joint_limits.empty()) {
     nlohmann::json limits = nlohmann::json::array();
     for (const JointDomain& domain : d.robot_source.joint_limits)
@@ -305,6 +306,7 @@ SavedDesign saved_design_from_json(const nlohmann::json& j) {
     saved.robot.base_link = robot.value("base_link", "");
     saved.robot.tip_link = robot.value("tip_link", "");
     saved.robot.actuated = robot.value("actuated", std::vector<int>{});
+    saved.fingerprint = robot.value("fingerprint", "");
     if (robot.contains("joint_limits")) {
       for (const nlohmann::json& range : robot.at("joint_limits")) {
         JointDomain domain;

@@ -4,7 +4,11 @@
 #include "obsgain/planar_2r.hpp"
 #include "obsgain/urdf_model.hpp"
 
+#include <fmt/format.h>
+
+#include <cstdint>
 #include <filesystem>
+#include <fstream>
 
 namespace obsgain {
 
@@ -26,11 +30,25 @@ Model load(const RobotSource& source) {
   throw InputError("unknown robot '" + robot + "' (built in: " + known + "; or a model file *.json or *.urdf)");
 }
 
+// FNV-1a, 64 bits, of the file's bytes: a design file records it, and monte-carlo refuses a changed file.
+std::string file_fingerprint(const std::string& path) {
+  std::ifstream file(path, std::ios::binary);
+  std::uint64_t hash = 1469598103934665603ull;
+  char c;
+  while (file.get(c)) {
+    hash ^= static_cast<unsigned char>(c);
+    hash *= 1099511628211ull;
+  }
+  return fmt::format("fnv1a64:{:016x}", hash);
+}
+
 }  // namespace
 
 Model load_robot(const RobotSource& source) {
   Model model = load(source);
   model.source = source;
+  model.fingerprint = source.robot.ends_with(".json") || source.robot.ends_with(".urdf") ? file_fingerprint(source.robot)
+                                                                                          : "built-in";
   if (source.robot.ends_with(".json") || source.robot.ends_with(".urdf")) {
     std::error_code error;
     const std::filesystem::path absolute = std::filesystem::absolute(source.robot, error);

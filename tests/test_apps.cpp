@@ -108,6 +108,19 @@ TEST(DesignGainsApp, RefusesValuesOutsideTheAdmissibleRanges) {
   expect_refused("--theta 200 --threads 10000", "--threads = 10000", "monte-carlo");
 }
 
+// A design file fixes the robot and the gains: design options beside it, or a model file changed since the
+// design, are refused rather than silently ignored or checked against the wrong robot.
+TEST(MonteCarloApp, DesignFileIsTheWholeTruth) {
+  const std::string model = write_temp_file("obsgain_changing.json", read_text(std::string(OBSGAIN_EXAMPLES_DIR) + "/pendubot.json"));
+  const std::string design = ::testing::TempDir() + "/obsgain_changing_design.json";
+  ASSERT_EQ(run("design-gains", "--robot " + model + " --gamma 1.27 --bounds numeric --json " + design).exit_code, 0);
+  expect_refused("--design " + design + " --robot pendubot", "--robot cannot be given with it", "monte-carlo");
+  expect_refused("--design " + design + " --gamma 3", "--gamma cannot be given with it", "monte-carlo");
+  EXPECT_EQ(run("monte-carlo", "--design " + design + " --trials 2 --horizon 0.1").exit_code, 0);
+  std::ofstream(model, std::ios::app) << "\n";  // the same robot, but the file changed: the design may be stale
+  expect_refused("--design " + design + " --trials 2", "run design-gains again", "monte-carlo");
+}
+
 TEST(DesignGainsApp, JsonOnStdoutAndTableOtherwise) {
   const AppRun j = run("design-gains", "--robot pendubot --gamma 1.27 --json");  // certified bounds: the default
   ASSERT_EQ(j.exit_code, 0) << j.err;

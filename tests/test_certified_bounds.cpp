@@ -169,7 +169,7 @@ TEST(ArmBrackets, ThreeJointArmBracketsContainTheGridAndTightenWithTheBudget) {
   const obsgain::Model arm = obsgain::load_robot({examples + "/arm3.urdf"});
   const GridMaxima grid = arm3_grid(arm);
   const obsgain::CertifiedBounds tiny = certify_with(arm, 0.3);
-  const obsgain::CertifiedBounds converged = certify_with(arm, 0.0, 1e-3);  // no budget: until the gap
+  const obsgain::CertifiedBounds converged = certify_with(arm, 0.0, 1e-2);  // no budget: until the gap
   for (const auto* brackets : {&tiny, &converged}) {
     EXPECT_GE(brackets->M0.upper, grid.M0);
     EXPECT_GE(brackets->B.upper, grid.B);
@@ -182,7 +182,7 @@ TEST(ArmBrackets, ThreeJointArmBracketsContainTheGridAndTightenWithTheBudget) {
   EXPECT_GE(tiny.L_joint.upper, converged.L_joint.upper);
   EXPECT_GT(tiny.L_joint.upper - tiny.L_joint.lower, converged.L_joint.upper - converged.L_joint.lower);
   for (const auto* bracket : {&converged.M0, &converged.B, &converged.L_joint})
-    EXPECT_LE(bracket->upper - bracket->lower, 1e-3 * bracket->upper);
+    EXPECT_LE(bracket->upper - bracket->lower, 1e-2 * bracket->upper);
   EXPECT_GE(converged.L_joint.lower, grid.L * (1 - 1e-12));
 }
 

@@ -22,6 +22,7 @@ struct DesignArguments {
   std::string bounds = "certified";
   bool optimize_shape = false;
   bool quiet = false;
+  std::vector<const CLI::Option*> given;  // every design option, to tell which the user gave
 };
 
 void add_design_options(CLI::App& app, DesignArguments& arguments);

@@ -67,6 +67,7 @@ struct Design {
   RobotSource robot_source;
   int dof = 0;
   Eigen::VectorXd armature;  // the model's reflected rotor inertias (zero: none)
+  std::string robot_fingerprint;  // the model file's, so that a later validation can refuse a changed file
   Eigen::VectorXd velocity_bounds;
   BoundReport bounds;
   double L_used = 0.0;

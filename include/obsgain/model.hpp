@@ -82,6 +82,7 @@ struct Model {
   std::string missing_velocity_bounds;  // why it gives none (the joints and attributes), for the error
   Eigen::VectorXd armature;         // reflected rotor inertia on M's diagonal (already inside the dynamics)
   std::vector<std::string> notes;   // what loading decided for the user (chain chosen, bodies lumped, ...)
+  std::string fingerprint;          // of the file it was loaded from (FNV-1a of its bytes), or "built-in"
 
   int dof() const { return dynamics->dof(); }
 };

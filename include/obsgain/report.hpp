@@ -57,6 +57,7 @@ WrittenReport write_verification_report(const VerificationReport& report, const 
 // What monte-carlo needs from design-gains' JSON: the robot, the velocity box and the certificate.
 struct SavedDesign {
   RobotSource robot;
+  std::string fingerprint;  // of the model file the design was made for (empty in older files)
   Eigen::VectorXd velocity_bounds;
   ObserverCertificate certificate;
 };
