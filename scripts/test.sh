@@ -8,12 +8,13 @@ scripts/install-deps.sh --with-browser
 scripts/build.sh
 ctest --test-dir build --output-on-failure -j"$jobs"
 
-# Sanitizers: the library and tests only (the installed-package test links a plain consumer). -O1 without
+# Sanitizers: the library and tests only (the installed-package test links a plain consumer, and the docs'
+# commands are checked once, with the plain build). -O1 without
 # debug info builds in about 4 of the suite's 10 minutes on 2 cores; sanitizer reports still name lines.
 cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=None -DCMAKE_CXX_FLAGS="-O1 -g1" -DOBSGAIN_SANITIZE=ON \
   -DOBSGAIN_BUILD_BENCHMARKS=OFF >/dev/null
 cmake --build build-asan -j"$jobs"
-ctest --test-dir build-asan --output-on-failure -j"$jobs" -E installed_package_consumer
+ctest --test-dir build-asan --output-on-failure -j"$jobs" -E "installed_package_consumer|docs_commands_run_as_written"
 
 if [[ -x ../shared/contract-check ]]; then
   ../shared/contract-check build
