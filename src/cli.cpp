@@ -90,6 +90,11 @@ void add_design_options(CLI::App& app, DesignArguments& a) {
 }
 
 DesignOptions to_design_options(const DesignArguments& a) {
+  // An option given with an empty value ("--vmax ''") would otherwise read as not given at all.
+  for (const CLI::Option* option : a.given)
+    for (const std::string& value : option->results())
+      if (option->get_type_size() != 0 && value.empty())
+        throw InputError(fmt::format("{} = '' is empty: give a value or leave the option out", option->get_name()));
   DesignOptions o;
   if (!a.gamma.empty()) o.gamma = parse_number("gamma", a.gamma);
   if (!a.theta.empty()) o.theta = parse_number("theta", a.theta);

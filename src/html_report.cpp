@@ -51,14 +51,14 @@ void write_data(const VerificationReport& r, const fs::path& dir) {
   write_trajectory_csv(r.paper_run, paper);
   write_file(dir / "paper_scenario.csv", paper.str());
 
-  // One block per trial (gnuplot's `index`): t, ||e(t)||/||e(0)||, envelope k e^{-γt}.
+  // A plain CSV: one header row, one row per sample, the trial in the first column.
   std::ostringstream errors;
-  errors << "# t,error_ratio,envelope_ratio\n";
-  for (const auto& trace : r.error_traces) {
+  errors << "trial,t,error_ratio,envelope_ratio\n";
+  for (std::size_t trial = 0; trial < r.error_traces.size(); ++trial) {
+    const auto& trace = r.error_traces[trial];
     const double e0 = trace.front().error_norm;
     for (const auto& s : trace)
-      errors << fmt::format("{:.9g},{:.12g},{:.12g}\n", s.t, s.error_norm / e0, s.envelope / e0);
-    errors << "\n\n";
+      errors << fmt::format("{},{:.9g},{:.12g},{:.12g}\n", trial, s.t, s.error_norm / e0, s.envelope / e0);
   }
   write_file(dir / "monte_carlo_errors.csv", errors.str());
 
@@ -79,17 +79,26 @@ std::vector<Plot> plots(const VerificationReport& r) {
   const Design& d = r.design;
   const auto& b = d.bounds;
   const std::string joint = fmt::format("q{}", r.curve_joint + 1);
-  const std::string common = "set terminal svg size 760,380 dynamic font 'sans,11'\nset datafile separator ','\n"
-                             "set key outside right\nset grid\n";
+  const std::string common = "set terminal svg size 760,400 dynamic enhanced font 'sans,11'\nset datafile separator ','\n"
+                             "set key below\nset grid\nset format y '%.8g'\n";
   std::vector<Plot> out;
-  out.push_back({"bound_curves", "Bounds over the joint angle, with the certified upper bounds",
-                 common + fmt::format("set multiplot layout 1,2\nset xlabel '{0} [rad]'\nset title '||M(q)^-1||'\n"
+  // A numeric estimate is never drawn as an upper bound.
+  const std::string kind = b.certified ? "proven upper bound" : "numeric estimate, not proven";
+  out.push_back({"bound_curves",
+                 fmt::format("The bounds' functions along {} (the other joints at the M0 argmax), max over the velocity "
+                             "vertices and saturation patterns; dashed: the value the design uses ({})",
+                             joint, kind),
+                 common + fmt::format("set multiplot layout 1,3\nset xlabel '{0} [rad]'\n"
+                                      "set title '||M(q)^{{-1}}|| [1/(kg m^2)]'\n"
                                       "plot 'bound_curves.csv' every ::1 using 1:2 with lines lw 2 title 'sampled', "
-                                      "{1:.12g} with lines dt 2 lw 2 title 'M0 (upper)'\n"
-                                      "set title '||J(q,w)|| (max over vertices)'\n"
+                                      "{1:.12g} with lines dt 2 lw 2 title 'M0'\n"
+                                      "set title 'max_w ||J(q,w)|| [kg m^2/s]'\n"
                                       "plot 'bound_curves.csv' every ::1 using 1:3 with lines lw 2 title 'sampled', "
-                                      "{2:.12g} with lines dt 2 lw 2 title 'B (upper)'\nunset multiplot\n",
-                                      joint, b.M0.value, b.B.value)});
+                                      "{2:.12g} with lines dt 2 lw 2 title 'B'\n"
+                                      "set title 'max_{{w,D}} ||M^{{-1}}(J D + F)|| [1/s]'\n"
+                                      "plot 'bound_curves.csv' every ::1 using 1:4 with lines lw 2 title 'sampled', "
+                                      "{3:.12g} with lines dt 2 lw 2 title 'L_{{joint}}'\nunset multiplot\n",
+                                      joint, b.M0.value, b.B.value, b.L_joint.value)});
   const int n = d.dof;
   std::string series;
   for (int i = 0; i < n; ++i) {
@@ -111,16 +120,21 @@ std::vector<Plot> plots(const VerificationReport& r) {
   out.push_back({"paper_scenario",
                  (r.example_scenario == "paper" ? "The paper's scenario: velocities and their estimates (the paper's Fig. 2)"
                                                 : "Random trial 0: velocities and their estimates") + left_box,
-                 common + "set xlabel 't [s]'\nset ylabel 'rad/s'\nplot " + series + "\n"});
-  out.push_back({"monte_carlo_errors", "Monte Carlo error norms against the certified envelope",
-                 common + fmt::format("set logscale y\nset format y '1e%T'\nset xlabel 't [s]'\n"
-                                      "set ylabel '||e(t)|| / ||e(0)||'\n"
-                                      "plot for [i=0:{0}] 'monte_carlo_errors.csv' index i using 1:2 with lines lc rgb "
-                                      "'#3070b0' notitle, 'monte_carlo_errors.csv' index 0 using 1:3 with lines lw 3 "
-                                      "lc rgb '#c03020' title 'k exp(-gamma t)'\n",
-                                      std::max<int>(0, static_cast<int>(r.error_traces.size()) - 1))});
+                 common + "set title \"joint velocities (solid) and the observer's estimates (dashed)\"\n"
+                          "set xlabel 't [s]'\nset ylabel 'velocity [rad/s]'\nplot " + series + "\n"});
+  const int traces = static_cast<int>(r.error_traces.size());
+  out.push_back({"monte_carlo_errors",
+                 fmt::format("Observer error norms of {} of the {} Monte Carlo trials against the certified envelope",
+                             traces, r.monte_carlo.trials),
+                 common + fmt::format("set title '||e(t)|| / ||e(0)||, {0} trials'\nset logscale y\nset format y '10^{{%T}}'\n"
+                                      "set xlabel 't [s]'\nset ylabel '||e(t)|| / ||e(0)|| (log scale)'\n"
+                                      "plot for [i=0:{1}] 'monte_carlo_errors.csv' every ::1 using 2:($1 == i ? $3 : NaN) "
+                                      "with lines lc rgb '#3070b0' notitle, 'monte_carlo_errors.csv' every ::1 using "
+                                      "2:($1 == 0 ? $4 : NaN) with lines lw 3 lc rgb '#c03020' title 'envelope k exp(-gamma t)'\n",
+                                      traces, std::max(0, traces - 1))});
   out.push_back({"rate_vs_theta", "Certified rate against the gain, both certificates",
-                 common + fmt::format("set xlabel 'theta'\nset ylabel 'certified gamma [1/s]'\n"
+                 common + fmt::format("set title \"dotted: the design's theta = {0:.6g}\"\nset xlabel 'theta [1/s]'\n"
+                                      "set ylabel 'certified gamma [1/s]'\n"
                                       "set arrow from {0:.9g}, graph 0 to {0:.9g}, graph 1 nohead dt 3\n"
                                       "plot 'rate_vs_theta.csv' every ::1 using 1:2 with lines lw 2 title 'paper', "
                                       "'rate_vs_theta.csv' every ::1 using 1:3 with lines lw 2 title 'tight', "

@@ -84,6 +84,8 @@ TEST(DesignGainsApp, RefusesValuesOutsideTheAdmissibleRanges) {
   expect_refused("--theta 1e300", "--theta = 1e+300 must lie in");
   expect_refused("--theta 1e-300", "--theta = 1e-300 must lie in");
   expect_refused("--gamma 0x10", "gamma = '0x10' is not a decimal number");
+  expect_refused("--gamma \"\" --theta 10", "--gamma = '' is empty");
+  expect_refused("--gamma 1 --vmax \"\"", "--vmax = '' is empty");
   expect_refused("--gamma 1 --vmax 1e300,1e300", "V1 = 1e+300 (--vmax) must lie in");
   expect_refused("--gamma 1 --bound-budget -1", "--bound-budget = -1");
   const std::string directory = ::testing::TempDir() + "/obsgain_directory.json";
