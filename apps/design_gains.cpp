@@ -1,5 +1,5 @@
 // design-gains: observer gains for a target convergence rate (or the rate a given gain certifies).
-#include "obsgain/cli.hpp"
+#include "cli.hpp"
 #include "obsgain/report.hpp"
 #include "obsgain/robots.hpp"
 

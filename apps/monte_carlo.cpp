@@ -1,5 +1,5 @@
 // monte-carlo: simulate plant and observer from randomised initial errors against the certified envelope.
-#include "obsgain/cli.hpp"
+#include "cli.hpp"
 #include "obsgain/report.hpp"
 
 #include <fstream>

@@ -1,5 +1,5 @@
 // verify-bounds: certified bound brackets, the design, a Monte Carlo verdict and plots, as a report.
-#include "obsgain/cli.hpp"
+#include "cli.hpp"
 #include "obsgain/report.hpp"
 #include "obsgain/robots.hpp"
 #include "obsgain/verification.hpp"

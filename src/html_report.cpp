@@ -223,7 +223,11 @@ std::string html(const VerificationReport& r, const std::vector<Plot>& plot_list
   bound_row("M0 = sup ||M⁻¹||", b.M0, b.M0_bracket);
   bound_row("B = sup ||∂A/∂v||", b.B, b.B_bracket);
   bound_row("L_joint", b.L_joint, b.L_joint_bracket);
-  h << "</table>\n<p>||F|| = " << number(b.F_norm) << ", L_paper = M0 (B + ||F||) = " << number(b.L_paper)
+  h << "</table>\n<p style='font-size:90%'><i>lower</i>: a value attained at a point (a lower bound of the "
+       "supremum). <i>upper</i>: proven to be above the supremum over the whole joint domain. <i>gap</i>: "
+       "(upper − lower)/upper. <i>boxes</i>: interval boxes of joint positions the branch and bound examined. "
+       "<i>NLopt</i>, <i>Ipopt</i>: the two optimisers' attained values.</p>\n"
+    << "<p>||F|| = " << number(b.F_norm) << ", L_paper = M0 (B + ||F||) = " << number(b.L_paper)
     << ". The certificate uses L = " << number(d.L_used) << " (" << d.L_source << ").</p>\n";
 
   h << "<h2>3. Lyapunov equation</h2>\n<p>Gᵀ S + S G = −I with G = [[−α, 1], [−β, 0]] ⊗ I, α = " << number(d.alpha)
@@ -260,7 +264,10 @@ std::string html(const VerificationReport& r, const std::vector<Plot>& plot_list
                   fmt::format("{:.4g}", mc.worst_lyapunov_ratio),
                   fmt::format("{:.4g} / {:.4g} / {:.4g}", mc.decay_rate.min, mc.decay_rate.median, mc.decay_rate.max),
                   number(mc.certificate.gamma)})
-    << "</table>\n<p>Trials that leave the velocity box are outside the theorem's assumption: they prove nothing and "
+    << "</table>\n<p style='font-size:90%'><i>envelope ratio</i>: the largest ||e(t)|| / (k ||e(0)|| e<sup>−γt</sup>) "
+       "over a trial; <i>Lyapunov ratio</i>: the largest V(e(t)) / (V(e(0)) e<sup>−2γt</sup>) with V(e) = eᵀ(P ⊗ I)e; "
+       "both must stay at or below 1. <i>fitted rate</i>: the decay rate fitted to log ||e(t)||.</p>\n"
+       "<p>Trials that leave the velocity box are outside the theorem's assumption: they prove nothing and "
        "are counted apart.</p>\n";
 
   h << "<h2>6. Plots</h2>\n";

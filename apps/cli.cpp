@@ -1,4 +1,4 @@
-#include "obsgain/cli.hpp"
+#include "cli.hpp"
 
 #include "obsgain/report.hpp"
 #include "obsgain/robots.hpp"
