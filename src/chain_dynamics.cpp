@@ -86,6 +86,38 @@ class ChainDynamics final : public Dynamics, public IntervalDynamics {
     evaluate(q, zero.data(), true, g);
   }
 
+  // The kinematics (every joint's sin and cos) once, then the Newton–Euler passes: the bound search calls this
+  // at every configuration.
+  void coriolis_tensors(const Eigen::Ref<const Eigen::VectorXd>& q, std::vector<Eigen::MatrixXd>& N) const override {
+    const int n = dof();
+    ChainKinematics<double> k;
+    chain_kinematics(chain_, q.data(), k);
+    std::array<double, kMaxChainJoints * kMaxChainJoints * kMaxChainJoints> flat;
+    chain_coriolis_tensors(chain_, k, flat.data());
+    N.resize(static_cast<std::size_t>(n));
+    for (int i = 0; i < n; ++i) {
+      N[i].resize(n, n);
+      for (int j = 0; j < n; ++j)
+        for (int l = 0; l < n; ++l) N[i](j, l) = flat[(i * n + j) * n + l];
+    }
+  }
+
+  // (A(x + y) - A(x - y)) / 4 with one kinematics for both passes (the simulation's every step).
+  void coriolis_bilinear(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Ref<const Eigen::VectorXd>& x,
+                         const Eigen::Ref<const Eigen::VectorXd>& y, Eigen::Ref<Eigen::VectorXd> out) const override {
+    const int n = dof();
+    ChainKinematics<double> k;
+    chain_kinematics(chain_, q.data(), k);
+    std::array<double, kMaxChainJoints> sum{}, difference{}, zero{}, plus{}, minus{};
+    for (int i = 0; i < n; ++i) {
+      sum[i] = x(i) + y(i);
+      difference[i] = x(i) - y(i);
+    }
+    inverse_dynamics(chain_, k, sum.data(), zero.data(), false, plus.data());
+    inverse_dynamics(chain_, k, difference.data(), zero.data(), false, minus.data());
+    for (int i = 0; i < n; ++i) out(i) = 0.25 * (plus[i] - minus[i]);
+  }
+
   // Rotating or translating the whole chain about its first joint moves no body relative to another, so the
   // kinetic energy, hence M and C, do not depend on q1.
   std::vector<int> configuration_joints() const override {
