@@ -82,6 +82,26 @@ void add_design_options(CLI::App& app, DesignArguments& a) {
                  "gap target); the design uses the proven upper ends reached, whatever the gap")
       ->type_name("SECONDS");
   app.add_flag("--quiet", a.quiet, "no progress lines on stderr");
+  app.add_option("--sample-period", a.sample_period,
+                 "deployment: the observer runs every T seconds on encoder counts; adds the sampled, quantised "
+                 "certificate (needs --encoder-counts and --acceleration-bounds)")
+      ->type_name("SECONDS");
+  app.add_option("--encoder-counts", a.encoder_counts,
+                 "deployment: encoder counts per revolution, one for all joints or N1,...,Nn")
+      ->type_name("COUNTS[,...]");
+  app.add_option("--acceleration-bounds", a.acceleration_bounds,
+                 "deployment: |q''_i| <= A_i along the observed motion, one for all joints or A1,...,An [rad/s^2]")
+      ->type_name("RAD_S2[,...]");
+  app.add_option("--velocity-error-tolerance", a.velocity_error_tolerance,
+                 "deployment: the largest certified ultimate velocity error accepted [rad/s] (default: the smallest "
+                 "velocity bound); sets max_sample_period")
+      ->type_name("RAD_S");
+  app.add_option("--objective", a.objective,
+                 "rate: the smallest theta certifying --gamma; velocity-error: the theta (and alpha with "
+                 "--optimize-shape) with the smallest certified ultimate velocity error that still certifies --gamma")
+      ->check(CLI::IsMember({"rate", "velocity-error"}))
+      ->capture_default_str()
+      ->type_name("rate|velocity-error");
   app.add_option("--rate-margin", a.rate_margin,
                  "tight certificate: P is computed at gamma_sup (1 - margin) (default 0.01)")
       ->type_name("FRACTION");
@@ -114,6 +134,26 @@ DesignOptions to_design_options(const DesignArguments& a) {
   for (Eigen::Index i = 0; i < o.velocity_bounds.size(); ++i) {
     if (o.velocity_bounds(i) <= 0.0)
       throw InputError(fmt::format("vmax: velocity bound V{} = {} must be positive", i + 1, o.velocity_bounds(i)));
+  }
+  o.objective = a.objective == "velocity-error" ? DesignObjective::velocity_error : DesignObjective::rate;
+  const bool deployment = !a.sample_period.empty() || !a.encoder_counts.empty() || !a.acceleration_bounds.empty() ||
+                          !a.velocity_error_tolerance.empty();
+  if (deployment) {
+    if (a.sample_period.empty() || a.encoder_counts.empty() || a.acceleration_bounds.empty())
+      throw InputError("a deployment needs all three of --sample-period, --encoder-counts and --acceleration-bounds");
+    DeploymentOptions d;
+    d.sample_period = parse_number("sample-period", a.sample_period);
+    d.encoder_resolution = encoder_resolution_from_counts(parse_number_list("encoder-counts", a.encoder_counts));
+    d.acceleration_bounds = parse_number_list("acceleration-bounds", a.acceleration_bounds);
+    if (!a.velocity_error_tolerance.empty())
+      d.velocity_error_tolerance = parse_number("velocity-error-tolerance", a.velocity_error_tolerance);
+    // C_q's branch and bound gets a tenth of the bound budget, within [1, 60] s, and stops at a 5 % gap: C_q
+    // enters the ultimate bounds through M0 C_q + k2, so 5 % on it moves them by less than that, and its attained
+    // values (vertex choices of a and v) sit about 1.5 % below the supremum of the enclosure's relaxation anyway.
+    const double budget = o.certified_bounds.budget_seconds;
+    d.sensitivity.budget_seconds = budget > 0.0 ? std::clamp(0.1 * budget, 1.0, 60.0) : 60.0;
+    d.sensitivity.relative_gap = 5e-2;
+    o.deployment = d;
   }
   validate_design_options(o);
   return o;

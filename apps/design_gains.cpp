@@ -1,5 +1,6 @@
 // design-gains: observer gains for a target convergence rate (or the rate a given gain certifies).
 #include "cli.hpp"
+#include "obsgain/export.hpp"
 #include "obsgain/report.hpp"
 #include "obsgain/robots.hpp"
 
@@ -12,13 +13,20 @@ int main(int argc, char** argv) {
   app.footer("Exit codes: 0 success; 1 the design does not certify the requested rate (or rests on bounds that are not\n"
       "proven while --bounds certified was asked); 2 bad input (one line on stderr naming it).\n"
       "Examples:\n  build/design-gains --robot pendubot --gamma 1.27\n"
-      "  build/design-gains --robot examples/arm3.urdf --gamma 5 --json design.json");
+      "  build/design-gains --robot examples/arm3.urdf --gamma 5 --json design.json\n"
+      "  build/design-gains --robot pendubot --gamma 1.27 --sample-period 0.001 --encoder-counts 4096 \\\n"
+      "      --acceleration-bounds 200 --objective velocity-error --export-header observer_gains.hpp");
   obsgain::DesignArguments arguments;
   obsgain::add_design_options(app, arguments);
   std::string json_path;
   auto* json = app.add_option("--json", json_path, "write JSON to stdout (no FILE, or -), or to FILE")
                    ->expected(0, 1)
                    ->type_name("[FILE]");
+  std::string header_path, ros2_path;
+  app.add_option("--export-header", header_path, "write the gains and the certificate as a C++ header of constexpr values")
+      ->type_name("FILE.hpp");
+  app.add_option("--export-ros2", ros2_path, "write the gains and the certificate as a ROS 2 parameters file")
+      ->type_name("FILE.yaml");
   return obsgain::run_app(app, argc, argv, [&] {
     const obsgain::DesignOptions options = obsgain::to_design_options(arguments);
     const obsgain::Model model = obsgain::load_robot(obsgain::to_robot_source(arguments));
@@ -33,6 +41,12 @@ int main(int argc, char** argv) {
         std::ofstream file(json_path);
         if (!(file << text)) throw obsgain::InputError("cannot write JSON to '" + json_path + "'");
       }
+    }
+    for (const auto& [path, content] : {std::pair{header_path, obsgain::observer_header(design)},
+                                         std::pair{ros2_path, obsgain::ros2_parameters(design)}}) {
+      if (path.empty()) continue;
+      std::ofstream file(path);
+      if (!(file << content)) throw obsgain::InputError("cannot write '" + path + "'");
     }
     if (const std::string unmet = obsgain::unmet_request(design, options); !unmet.empty()) {
       std::cerr << "design-gains: error: " << unmet << "\n";

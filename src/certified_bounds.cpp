@@ -393,6 +393,13 @@ BoundBracket branch_and_bound(const SearchDomain& s, const std::function<BoxBoun
   return bracket;
 }
 
+// A continuous joint's period, widened by an ulp so that the rounded π leaves no sliver of the circle out.
+Interval search_interval(const JointDomain& joint) {
+  if (!joint.continuous) return Interval(joint.lower, joint.upper);
+  const double pi_up = std::nextafter(std::numbers::pi, kInfinity);
+  return Interval(-pi_up, pi_up);
+}
+
 }  // namespace
 
 std::string certification_unavailable(const Model& model) {
@@ -413,10 +420,7 @@ std::optional<CertifiedBounds> certify_bounds(const Model& model, const BoundRep
   SearchDomain s;
   s.joints = model.dynamics->configuration_joints();
   s.fixed_q = Eigen::VectorXd::Zero(n);
-  for (int j : s.joints) {
-    const JointDomain& joint = model.joints[j];
-    s.domain.push_back(joint.continuous ? Interval(-std::numbers::pi, std::numbers::pi) : Interval(joint.lower, joint.upper));
-  }
+  for (int j : s.joints) s.domain.push_back(search_interval(model.joints[j]));
   const Eigen::MatrixXd vertices = box_vertices(V);
   const unsigned count = static_cast<unsigned>(vertices.cols());
   // J(q, -w) = -J(q, w): the vertices with w_n < 0 repeat the others for ||J||, and for ||M⁻¹(J D + F)|| too
@@ -543,6 +547,125 @@ void apply_certified_bounds(BoundReport& report, const CertifiedBounds& certifie
   if (report.L_paper < report.L_joint_bracket.upper) report.L_joint_bracket.upper = report.L_paper;
   report.L_joint.value = report.L_joint_bracket.upper;
   report.wall_seconds += certified.M0.seconds + certified.B.seconds + certified.L_joint.seconds;
+}
+
+namespace {
+
+// The derivative enclosures that ∂h/∂q is built from, h(q) = M(q) a + A(q, v) + g(q): computed once per box,
+// combined for as many (a, v) as needed.
+struct SensitivityTerms {
+  MatrixEnclosure M, g;
+  std::vector<MatrixEnclosure> N;
+};
+
+SensitivityTerms sensitivity_terms(const IntervalDynamics& dynamics, const std::vector<DualInterval>& q) {
+  return {dynamics.mass_matrix(q), dynamics.gravity(q), dynamics.coriolis_tensors(q)};
+}
+
+// Columns ∂h/∂q_j for every a and v in the interval vectors (v_k v_l in `velocity_products`).
+IntervalMatrix sensitivity_enclosure(const SensitivityTerms& t, const std::vector<Interval>& a,
+                                     const IntervalMatrix& velocity_products) {
+  const auto n = static_cast<Eigen::Index>(a.size());
+  IntervalMatrix K(n, n);
+  for (Eigen::Index j = 0; j < n; ++j)
+    for (Eigen::Index i = 0; i < n; ++i) {
+      Interval sum = t.g.derivative[j](i, 0);
+      for (Eigen::Index k = 0; k < n; ++k) {
+        sum += t.M.derivative[j](i, k) * a[k];
+        for (Eigen::Index l = 0; l < n; ++l) sum += t.N[i].derivative[j](k, l) * velocity_products(k, l);
+      }
+      K(i, j) = sum;
+    }
+  return K;
+}
+
+IntervalMatrix products_of(const std::vector<Interval>& v) {
+  const auto n = static_cast<Eigen::Index>(v.size());
+  IntervalMatrix P(n, n);
+  for (Eigen::Index k = 0; k < n; ++k)
+    for (Eigen::Index l = 0; l < n; ++l) P(k, l) = k == l ? square(v[k]) : v[k] * v[l];
+  return P;
+}
+
+}  // namespace
+
+std::string sensitivity_unavailable(const Model& model) {
+  if (dynamic_cast<const IntervalDynamics*>(model.dynamics.get()) == nullptr)
+    return fmt::format("model '{}' cannot be evaluated on intervals", model.name);
+  if (model.dof() > kMaxDirections)
+    return fmt::format("model '{}' has {} joints; the position sensitivity is searched over at most {}", model.name,
+                       model.dof(), kMaxDirections);
+  return {};
+}
+
+std::optional<BoundBracket> certify_position_sensitivity(const Model& model, const Eigen::VectorXd& velocity_bounds,
+                                                         const Eigen::VectorXd& acceleration_bounds,
+                                                         const CertifiedOptions& options) {
+  if (!sensitivity_unavailable(model).empty()) return std::nullopt;
+  const auto& dynamics = dynamic_cast<const IntervalDynamics&>(*model.dynamics);
+  const int n = model.dof();
+  // Gravity depends on every joint (the first too, unless its axis is vertical): all of them are searched.
+  SearchDomain s;
+  s.fixed_q = Eigen::VectorXd::Zero(n);
+  for (int j = 0; j < n; ++j) {
+    s.joints.push_back(j);
+    s.domain.push_back(search_interval(model.joints[j]));
+  }
+  std::vector<Interval> a_box, v_box;
+  for (int j = 0; j < n; ++j) {
+    a_box.emplace_back(-acceleration_bounds(j), acceleration_bounds(j));
+    v_box.emplace_back(-velocity_bounds(j), velocity_bounds(j));
+  }
+  const IntervalMatrix v_products = products_of(v_box);
+
+  const auto box_upper = [&](const BoxPoint& b, double) {
+    BoxBound bound{norm_upper_bound(sensitivity_enclosure(sensitivity_terms(dynamics, b.box), a_box, v_products)), {}};
+    // No second derivatives to weigh the sides by: split the widest (relative to its domain).
+    for (int k = 0; k < n; ++k) bound.smear.push_back(boost::numeric::width(b.offsets[k]) / boost::numeric::width(s.domain[k]));
+    return bound;
+  };
+  // Attained values: the norm is convex in a and in v_k v_l jointly only along vertices, so the lower end
+  // tries vertex pairs (all of them up to three joints, a fixed pseudo-random 64 beyond).
+  const Eigen::MatrixXd a_vertices = box_vertices(acceleration_bounds), v_vertices = box_vertices(velocity_bounds);
+  std::vector<std::pair<Eigen::Index, Eigen::Index>> choices;
+  if (n <= 3) {
+    for (Eigen::Index i = 0; i < a_vertices.cols(); ++i)
+      for (Eigen::Index k = 0; k < v_vertices.cols(); ++k) choices.emplace_back(i, k);
+  } else {
+    std::uint64_t state = 0x9e3779b97f4a7c15ULL;
+    for (int c = 0; c < 64; ++c) {
+      state = state * 6364136223846793005ULL + 1442695040888963407ULL;
+      choices.emplace_back(static_cast<Eigen::Index>((state >> 20) % a_vertices.cols()),
+                           static_cast<Eigen::Index>((state >> 40) % v_vertices.cols()));
+    }
+  }
+  const auto point = [&](const Eigen::VectorXd& q) {
+    const UpwardRounding upward;
+    std::vector<DualInterval> x;
+    for (int j = 0; j < n; ++j) x.push_back(DualInterval::variable(Interval(q(j)), j, n));
+    const SensitivityTerms terms = sensitivity_terms(dynamics, x);
+    double best = 0.0;
+    for (const auto& [i, k] : choices) {
+      std::vector<Interval> a, v;
+      for (int j = 0; j < n; ++j) {
+        a.emplace_back(a_vertices(j, i));
+        v.emplace_back(v_vertices(j, k));
+      }
+      const IntervalMatrix K = sensitivity_enclosure(terms, a, products_of(v));
+      Eigen::MatrixXd mid(n, n);
+      for (Eigen::Index e = 0; e < K.size(); ++e) mid(e) = centre(K(e));
+      best = std::max(best, mid.operatorNorm());
+    }
+    return best;
+  };
+  const bool unlimited = options.budget_seconds <= 0.0;
+  const auto deadline = unlimited ? std::chrono::steady_clock::time_point::max()
+                                  : std::chrono::steady_clock::now() +
+                                        std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                            std::chrono::duration<double>(options.budget_seconds));
+  Eigen::VectorXd seed(n);
+  for (int j = 0; j < n; ++j) seed(j) = centre(s.domain[j]);
+  return branch_and_bound(s, box_upper, point, seed, options, deadline);
 }
 
 }  // namespace obsgain

@@ -153,6 +153,16 @@ class ChainDynamics final : public Dynamics, public IntervalDynamics {
     return N;
   }
 
+  MatrixEnclosure gravity(const std::vector<DualInterval>& q) const override {
+    const int n = dof();
+    ChainKinematics<DualInterval> k;
+    chain_kinematics(chain_, q.data(), k);
+    std::array<double, kMaxChainJoints> zero{};
+    std::vector<DualInterval> tau(static_cast<std::size_t>(n));
+    inverse_dynamics(chain_, k, zero.data(), zero.data(), true, tau.data());
+    return enclosure_of(Eigen::Map<const Eigen::Matrix<DualInterval, Eigen::Dynamic, 1>>(tau.data(), n), directions(q));
+  }
+
  private:
   void evaluate(const Eigen::Ref<const Eigen::VectorXd>& q, const double* qd, bool with_gravity,
                 Eigen::Ref<Eigen::VectorXd> out) const {

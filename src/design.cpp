@@ -193,6 +193,11 @@ BoundReport design_bounds(const Model& model, const Eigen::VectorXd& V, const De
 }
 
 std::string unmet_request(const Design& d, const DesignOptions& options) {
+  if (d.deployment && d.selected().certified && !d.deployment->within_tolerance())
+    return fmt::format("at T = {:g} s the certified ultimate velocity error {:.4g} exceeds the tolerance {:.4g} "
+                       "(largest sample period within it: {:.4g} s)",
+                       d.deployment->sample_period, d.deployment->bounds.velocity_norm,
+                       d.deployment->velocity_error_tolerance, d.deployment->max_sample_period);
   if (!options.gamma) return {};
   if (!d.selected().certified) return fmt::format("the design does not certify gamma = {}", *options.gamma);
   if (!d.proven() && options.bound_method == BoundMethod::certified)
@@ -201,18 +206,41 @@ std::string unmet_request(const Design& d, const DesignOptions& options) {
   return {};
 }
 
-Design design_gains(const Model& model, const DesignOptions& options) {
-  validate_design_options(options);
+Design design_gains(const Model& model, const DesignOptions& requested) {
+  validate_design_options(requested);
   const auto start = std::chrono::steady_clock::now();
+  DesignOptions options = requested;
   const Eigen::VectorXd V = options.velocity_bounds.size() ? options.velocity_bounds : model.velocity_bounds;
   if (V.size() == 0)
     throw InputError("model '" + model.name + "' gives no velocity bounds" +
                      (model.missing_velocity_bounds.empty() ? "" : " (" + model.missing_velocity_bounds + ")") +
                      ": pass --vmax V1,...,Vn");
   validate_velocity_bounds(model, V);
+  if (options.deployment) {
+    // One value stands for every joint.
+    for (Eigen::VectorXd* values : {&options.deployment->encoder_resolution, &options.deployment->acceleration_bounds})
+      if (values->size() == 1) *values = Eigen::VectorXd::Constant(model.dof(), (*values)(0));
+    validate_deployment_options(*options.deployment, model.dof());
+    if (const std::string why = sensitivity_unavailable(model); !why.empty())
+      throw InputError("--sample-period: the sampled certificate needs C_q on intervals, but " + why);
+    if (options.objective == DesignObjective::velocity_error && !options.gamma)
+      throw InputError("--objective velocity-error needs --gamma: the rate the design must still certify");
+  } else if (options.objective == DesignObjective::velocity_error) {
+    throw InputError("--objective velocity-error needs a deployment: --sample-period, --encoder-counts, --acceleration-bounds");
+  }
   std::vector<std::string> warnings;
   const BoundReport bounds = design_bounds(model, V, options, warnings);
-  Design d = design_from_bounds(model, bounds, options);
+  Design d;
+  if (options.deployment) {
+    if (options.progress && model.dof() > 2)
+      options.progress(fmt::format("deployment: position sensitivity C_q, interval branch and bound, budget {:g} s",
+                                   options.deployment->sensitivity.budget_seconds));
+    const auto sensitivity =
+        certify_position_sensitivity(model, V, options.deployment->acceleration_bounds, options.deployment->sensitivity);
+    d = deployed_design(model, bounds, options, *sensitivity);
+  } else {
+    d = design_from_bounds(model, bounds, options);
+  }
   d.notes = model.notes;
   d.armature = model.armature;
   d.robot_fingerprint = model.fingerprint;

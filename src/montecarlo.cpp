@@ -70,7 +70,12 @@ ObserverCertificate observer_certificate(const Design& design) {
   if (!s.certified)
     throw InputError("the design certifies no exponential rate (gamma = " + std::to_string(s.gamma) +
                      "): there is no envelope to validate");
-  return {s.k1, s.k2, s.envelope_gamma, s.k, s.P};
+  ObserverCertificate c{s.k1, s.k2, s.envelope_gamma, s.k, s.P, std::nullopt};
+  if (const auto& d = design.deployment)
+    c.sampled = SampledCertificate{d->sample_period,        d->encoder_resolution,   d->acceleration_bounds,
+                                   design.L_used,           d->bounds.level,         d->bounds.offset,
+                                   d->bounds.position_norm, d->bounds.velocity_norm};
+  return c;
 }
 
 TrialSetup make_trial(const Model& model, const Eigen::VectorXd& V, const MonteCarloOptions& options, int index,
@@ -208,6 +213,7 @@ MonteCarloReport run_monte_carlo(const Model& model, const Eigen::VectorXd& V, c
   // Trials outside the box are assumption violations: never passes, never observer failures.
   std::vector<double> rates;
   for (const TrialRecord& r : report.records) {
+    report.max_acceleration_ratio = std::max(report.max_acceleration_ratio, r.result.max_acceleration_ratio);
     if (r.result.left_velocity_box) {
       ++report.assumption_violations;
       continue;
@@ -217,7 +223,8 @@ MonteCarloReport run_monte_carlo(const Model& model, const Eigen::VectorXd& V, c
     report.passed += !r.envelope_violated && !r.lyapunov_violated;
     report.worst_envelope_ratio = std::max(report.worst_envelope_ratio, r.result.worst_envelope_ratio);
     report.worst_lyapunov_ratio = std::max(report.worst_lyapunov_ratio, r.result.worst_lyapunov_ratio);
-    rates.push_back(r.result.fitted_rate);
+    report.worst_final_velocity_error = std::max(report.worst_final_velocity_error, r.result.final_velocity_error);
+    if (std::isfinite(r.result.fitted_rate)) rates.push_back(r.result.fitted_rate);
   }
   if (!rates.empty()) {
     std::sort(rates.begin(), rates.end());

@@ -43,6 +43,10 @@ std::vector<MatrixEnclosure> Planar2RDynamics::coriolis_tensors(const std::vecto
   return {enclosure_of(tensors[0], q[1].directions), enclosure_of(tensors[1], q[1].directions)};
 }
 
+MatrixEnclosure Planar2RDynamics::gravity(const std::vector<DualInterval>& q) const {
+  return enclosure_of(planar_2r_gravity(parameters_, q[0], q[1]), std::max(q[0].directions, q[1].directions));
+}
+
 Model make_planar_2r(const std::string& name, const Planar2RParameters& parameters, const Eigen::Vector2d& friction,
                      const Eigen::MatrixXd& input_matrix, const Eigen::VectorXd& velocity_bounds) {
   Model model;

@@ -99,6 +99,41 @@ nlohmann::json to_json(const CertificateSummary& s) {
           {"certified", s.certified}};
 }
 
+nlohmann::json to_json(const DeploymentCertificate& c, const std::vector<TradeoffPoint>& tradeoff,
+                       DesignObjective objective) {
+  const SampledErrorBounds& b = c.bounds;
+  nlohmann::json sweep = nlohmann::json::array();
+  for (const TradeoffPoint& p : tradeoff)
+    sweep.push_back({{"theta", p.theta}, {"alpha", p.alpha}, {"gamma", p.gamma}, {"k", p.k},
+                     {"ultimate_position_error_norm", p.position_norm}, {"ultimate_velocity_error_norm", p.velocity_norm}});
+  nlohmann::json j = {
+      {"sample_period", c.sample_period},
+      {"encoder_resolution", to_json(c.encoder_resolution)},
+      {"acceleration_bounds", to_json(c.acceleration_bounds)},
+      {"measurement_error", to_json(c.measurement_error)},
+      {"position_sensitivity",
+       {{"lower", c.position_sensitivity.lower}, {"upper", c.position_sensitivity.upper},
+        {"argmax_q", to_json(c.position_sensitivity.argmax)}, {"boxes", c.position_sensitivity.boxes},
+        {"seconds", c.position_sensitivity.seconds}}},
+      {"M0", c.M0},
+      {"model_gain", c.model_gain},
+      {"ultimate_position_error", to_json(c.ultimate_position_error)},
+      {"ultimate_position_error_norm", b.position_norm},
+      {"ultimate_velocity_error", to_json(c.ultimate_velocity_error)},
+      {"ultimate_velocity_error_norm", b.velocity_norm},
+      {"iss_envelope",
+       {{"k", c.k}, {"gamma", c.gamma}, {"offset", b.offset}, {"level", b.level},
+        {"disturbance_position", b.disturbance_position}, {"disturbance_velocity", b.disturbance_velocity}}},
+      {"velocity_error_tolerance", c.velocity_error_tolerance},
+      {"max_sample_period", c.max_sample_period},
+      {"substeps", c.substeps},
+      {"objective", objective == DesignObjective::velocity_error ? "velocity-error" : "rate"},
+      {"tradeoff", sweep},
+      {"certified", c.proven()}};
+  if (!c.proven()) j["certified_reason"] = c.not_proven_reason;
+  return j;
+}
+
 nlohmann::json to_json(const Design& d) {
   nlohmann::json bounds = to_json(d.bounds);
   bounds["L_used"] = d.L_used;
@@ -136,6 +171,7 @@ nlohmann::json to_json(const Design& d) {
       limits.push_back(domain.continuous ? nlohmann::json("c") : nlohmann::json{domain.lower, domain.upper});
     j["robot"]["joint_limits"] = limits;  // the --joint-limits override, so that monte-carlo loads the same robot
   }
+  if (d.deployment) j["deployment"] = to_json(*d.deployment, d.tradeoff, d.objective);
   if (d.shape.optimized) {
     j["shape"] = {{"objective", d.shape.objective},         {"alpha_global", d.shape.alpha_global},
                   {"alpha_polish", d.shape.alpha_polish},   {"objective_global", d.shape.objective_global},
@@ -200,6 +236,37 @@ std::string format_report(const Design& d) {
   } else {
     out << "  NOT CERTIFIED\n";
   }
+  if (d.deployment) out << "\n" << format_deployment(*d.deployment, d.tradeoff, d.proven() && s.certified);
+  return out.str();
+}
+
+std::string format_deployment(const DeploymentCertificate& c, const std::vector<TradeoffPoint>& tradeoff,
+                              bool rate_proven) {
+  std::ostringstream out;
+  const SampledErrorBounds& b = c.bounds;
+  out << fmt::format("Deployment: sampled every T = {:g} s, encoders of {} rad, |q''_i| <= {}\n", c.sample_period,
+                     format_vector(c.encoder_resolution), format_vector(c.acceleration_bounds));
+  out << fmt::format("  measurement error |y_i - q_i| <= d_i = delta_i/2 + A_i T^2/8 = {}\n", format_vector(c.measurement_error));
+  out << fmt::format("  C_q = sup ||d/dq (M a + A + g)||  [{:.6g}, {:.6g}] ({} boxes, {:.2f} s); M0 C_q = {:.6g}\n",
+                     c.position_sensitivity.lower, c.position_sensitivity.upper, c.position_sensitivity.boxes,
+                     c.position_sensitivity.seconds, c.model_gain);
+  const bool proven = c.proven() && rate_proven;
+  out << fmt::format("  {}: ||e(t)|| <= {:.6g} ||e(0)|| exp(-{:.6g} t) + {:.4g}\n",
+                     proven ? "certified" : "estimate (not proven)", c.k, c.gamma, b.offset);
+  out << fmt::format("  ultimate errors: ||q^ - q|| <= {:.4g} rad, ||v^ - v|| <= {:.4g} rad/s (each joint too)\n",
+                     b.position_norm, b.velocity_norm);
+  out << fmt::format("  largest sample period keeping ||v^ - v|| <= {:.4g}: {:.4g} s; the Observer class takes {} RK4 "
+                     "sub-step(s) per sample\n",
+                     c.velocity_error_tolerance, c.max_sample_period, c.substeps);
+  if (!c.proven()) out << "  not proven: " << c.not_proven_reason << "\n";
+  if (!tradeoff.empty()) {
+    out << "  trade-off (faster convergence vs smaller error floor, same T and encoders):\n";
+    out << fmt::format("    {:>12} {:>10} {:>12} {:>10} {:>14} {:>14}\n", "theta", "alpha", "gamma", "k", "||e_q|| ult",
+                       "||e_v|| ult");
+    for (const TradeoffPoint& p : tradeoff)
+      out << fmt::format("    {:>12.6g} {:>10.5g} {:>12.6g} {:>10.4g} {:>14.4g} {:>14.4g}\n", p.theta, p.alpha, p.gamma,
+                         p.k, p.position_norm, p.velocity_norm);
+  }
   return out.str();
 }
 
@@ -213,7 +280,7 @@ std::string format_warnings(const Design& d) {
 
 nlohmann::json to_json(const MonteCarloReport& r) {
   const ObserverCertificate& c = r.certificate;
-  return {{"trials", r.trials},
+  nlohmann::json j = {{"trials", r.trials},
           {"passed", r.passed},
           {"envelope_violations", r.envelope_violations},
           {"lyapunov_violations", r.lyapunov_violations},
@@ -236,6 +303,19 @@ nlohmann::json to_json(const MonteCarloReport& r) {
           {"violation_tolerance", r.simulation.violation_tolerance},
           {"numerical_floor", "none: the error is integrated as exp(rho) u with ||u|| = 1 and checked in log space"},
           {"certificate_held", r.certificate_held()}};
+  if (c.sampled) {
+    const SampledCertificate& d = *c.sampled;
+    j["numerical_floor"] = "sampled: the plant is integrated alone and the Observer class runs as deployed";
+    j["sampled"] = {{"sample_period", d.sample_period},
+                    {"encoder_resolution", to_json(d.encoder_resolution)},
+                    {"acceleration_bounds", to_json(d.acceleration_bounds)},
+                    {"offset", d.offset},
+                    {"level", d.level},
+                    {"ultimate_velocity_error_norm", d.velocity_norm},
+                    {"worst_final_velocity_error", r.worst_final_velocity_error},
+                    {"max_acceleration_ratio", r.max_acceleration_ratio}};
+  }
+  return j;
 }
 
 std::string format_report(const MonteCarloReport& r) {
@@ -251,9 +331,18 @@ std::string format_report(const MonteCarloReport& r) {
                      r.worst_envelope_ratio, r.worst_lyapunov_ratio, r.simulation.violation_tolerance);
   out << fmt::format("  fitted decay rate min {:.4g} / median {:.4g} / max {:.4g} 1/s against certified {:.4g}\n",
                      r.decay_rate.min, r.decay_rate.median, r.decay_rate.max, c.gamma);
+  if (c.sampled) {
+    out << fmt::format("  sampled every {:g} s on encoders of {} rad (the Observer class as deployed); envelope offset "
+                       "{:.4g}, Lyapunov level offset {:.4g}\n",
+                       c.sampled->sample_period, format_vector(c.sampled->encoder_resolution), c.sampled->offset,
+                       c.sampled->level);
+    out << fmt::format("  over the last fifth of the horizon ||v^ - v|| reached {:.4g} rad/s (certified ultimate bound "
+                       "{:.4g}); largest |q''_i| / A_i {:.3g}\n",
+                       r.worst_final_velocity_error, c.sampled->velocity_norm, r.max_acceleration_ratio);
+  }
   if (r.assumption_violations > 0)
-    out << fmt::format("  {} trial(s) left the velocity box: outside the theorem's assumption, they prove nothing\n",
-                       r.assumption_violations);
+    out << fmt::format("  {} trial(s) left the velocity{} box: outside the theorem's assumption, they prove nothing\n",
+                       r.assumption_violations, c.sampled ? " or acceleration" : "");
   out << (r.certificate_held() ? "  verdict: no trajectory left the certified envelope\n"
                                : "  verdict: CERTIFICATE VIOLATED\n");
   return out.str();
@@ -332,6 +421,29 @@ SavedDesign saved_design_from_json(const nlohmann::json& j) {
     const auto P = d.at("P").get<std::vector<std::vector<double>>>();
     if (P.size() != 2 || P[0].size() != 2 || P[1].size() != 2) throw InputError("design.P must be 2 x 2");
     saved.certificate.P << P[0][0], P[0][1], P[1][0], P[1][1];
+    if (j.contains("deployment")) {
+      const nlohmann::json& dep = j.at("deployment");
+      const auto vector = [&](const char* key) {
+        const auto values = dep.at(key).get<std::vector<double>>();
+        if (values.size() != saved.velocity_bounds.size())
+          throw InputError(std::string("deployment.") + key + " needs one value per joint");
+        return Eigen::VectorXd(Eigen::Map<const Eigen::VectorXd>(values.data(), static_cast<Eigen::Index>(values.size())));
+      };
+      SampledCertificate c;
+      c.sample_period = dep.at("sample_period").get<double>();
+      c.encoder_resolution = vector("encoder_resolution");
+      c.acceleration_bounds = vector("acceleration_bounds");
+      c.L = j.at("bounds").at("L_used").get<double>();
+      c.level = dep.at("iss_envelope").at("level").get<double>();
+      c.offset = dep.at("iss_envelope").at("offset").get<double>();
+      c.position_norm = dep.at("ultimate_position_error_norm").get<double>();
+      c.velocity_norm = dep.at("ultimate_velocity_error_norm").get<double>();
+      for (const double x : {c.sample_period, c.L, c.level, c.offset})
+        if (!(x > 0.0) || !std::isfinite(x)) throw InputError("deployment: sample_period, L_used, level and offset must be positive");
+      if ((c.encoder_resolution.array() <= 0.0).any() || (c.acceleration_bounds.array() <= 0.0).any())
+        throw InputError("deployment: encoder_resolution and acceleration_bounds must be positive");
+      saved.certificate.sampled = c;
+    }
     return saved;
   } catch (const nlohmann::json::exception& e) {
     throw InputError(std::string("not a design-gains JSON: ") + e.what());

@@ -1,5 +1,7 @@
 #include "obsgain/simulation.hpp"
 
+#include "obsgain/observer.hpp"
+
 #include <boost/numeric/odeint.hpp>
 
 #include <cmath>
@@ -240,12 +242,137 @@ TrialResult integrate_trial(const Model& model, const ObserverCertificate& certi
   return result;
 }
 
+// The plant alone, M q'' = H u - A - F v - g with u held, for the sampled trials.
+class Plant {
+ public:
+  Plant(const Model& model, const Eigen::VectorXd& u)
+      : model_(model), u_(u), n_(model.dof()), M_(n_, n_), llt_(n_), rhs_(n_), a_(n_), g_(n_) {}
+
+  void operator()(const State& x, State& dxdt, double) {
+    const Eigen::Map<const Eigen::VectorXd> q(x.data(), n_), v(x.data() + n_, n_);
+    Eigen::Map<Eigen::VectorXd>(dxdt.data(), n_) = v;
+    acceleration(q, v, Eigen::Map<Eigen::VectorXd>(dxdt.data() + n_, n_));
+  }
+
+  void acceleration(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Ref<const Eigen::VectorXd>& v,
+                    Eigen::Ref<Eigen::VectorXd> a) {
+    model_.dynamics->mass_matrix(q, M_);
+    llt_.compute(M_);
+    model_.dynamics->coriolis(q, v, a_);
+    model_.dynamics->gravity(q, g_);
+    rhs_.noalias() = model_.input_matrix * u_;
+    rhs_ -= a_ + g_;
+    rhs_.noalias() -= model_.friction * v;
+    a = llt_.solve(rhs_);
+  }
+
+ private:
+  const Model& model_;
+  const Eigen::VectorXd& u_;
+  int n_;
+  Eigen::MatrixXd M_;
+  Eigen::LLT<Eigen::MatrixXd> llt_;
+  Eigen::VectorXd rhs_, a_, g_;
+};
+
+// The input held over the next sample interval: the open-loop signal at t, or the computed torque of the
+// reference from the state sampled at t (H invertible: fully actuated).
+void held_input(const Model& model, const InputSignal& input, double t, const Eigen::VectorXd& q, const Eigen::VectorXd& v,
+                Eigen::VectorXd& u) {
+  if (!input.reference.active()) {
+    input.evaluate(t, u);
+    return;
+  }
+  const int n = model.dof();
+  Eigen::VectorXd q_r(n), v_r(n), a_r(n), A(n), g(n);
+  Eigen::MatrixXd M(n, n);
+  input.reference.evaluate(t, q_r, v_r, a_r);
+  const Eigen::VectorXd a_c = a_r + input.reference.damping * (v_r - v) + input.reference.stiffness * (q_r - q);
+  model.dynamics->mass_matrix(q, M);
+  model.dynamics->coriolis(q, v, A);
+  model.dynamics->gravity(q, g);
+  u = model.input_matrix.fullPivLu().solve(M * a_c + A + model.friction * v + g);
+}
+
+TrialResult sampled_trial(const Model& model, const ObserverCertificate& c, const Eigen::VectorXd& V,
+                          const TrialInitialState& initial, const InputSignal& input, const SimulationOptions& options,
+                          std::vector<TrajectorySample>* trajectory) {
+  namespace odeint = boost::numeric::odeint;
+  const SampledCertificate& sampled = *c.sampled;
+  const int n = model.dof();
+  const double T = sampled.sample_period;
+  const Eigen::VectorXd& delta = sampled.encoder_resolution;
+  const auto quantised = [&](const Eigen::VectorXd& q) -> Eigen::VectorXd {
+    return (q.array() / delta.array()).round() * delta.array();
+  };
+  const auto W = [&](const Eigen::VectorXd& eq, const Eigen::VectorXd& ev) {
+    return std::sqrt(c.P(0, 0) * eq.squaredNorm() + 2.0 * c.P(0, 1) * eq.dot(ev) + c.P(1, 1) * ev.squaredNorm());
+  };
+  Observer observer(model, ObserverGains{c.k1, c.k2, sampled.L, V, 0});
+  Eigen::VectorXd q = initial.q, v = initial.v, u(model.input_matrix.cols());
+  observer.reset(quantised(q), q + initial.e_q, v + initial.e_v);
+  const double e0 = std::sqrt(initial.e_q.squaredNorm() + initial.e_v.squaredNorm());
+  const double W0 = W(initial.e_q, initial.e_v);
+  Plant plant(model, u);
+  State x(2 * n);
+  Eigen::VectorXd a(n);
+  TrialResult result;
+  // Least-squares fit of log ||e|| while the error is well above the floor.
+  double count = 0.0, st = 0.0, stt = 0.0, sy = 0.0, sty = 0.0;
+  const auto inside = [&](const Eigen::VectorXd& qq, const Eigen::VectorXd& vv) {
+    plant.acceleration(qq, vv, a);
+    const double velocity_ratio = (vv.array().abs() / V.array()).maxCoeff();
+    const double acceleration_ratio = (a.array().abs() / sampled.acceleration_bounds.array()).maxCoeff();
+    result.max_velocity_ratio = std::max(result.max_velocity_ratio, velocity_ratio);
+    result.max_acceleration_ratio = std::max(result.max_acceleration_ratio, acceleration_ratio);
+    if (velocity_ratio > 1.0 || acceleration_ratio > 1.0) result.left_velocity_box = true;
+    return !result.left_velocity_box;
+  };
+  const int samples = static_cast<int>(std::ceil(options.horizon / T));
+  for (int k = 0; k <= samples; ++k) {
+    const double t = k * T;
+    const Eigen::VectorXd eq = observer.position() - q, ev = observer.velocity() - v;
+    const double e = std::sqrt(eq.squaredNorm() + ev.squaredNorm());
+    const double decay = std::exp(-c.gamma * t);
+    result.worst_envelope_ratio = std::max(result.worst_envelope_ratio, e / (c.k * e0 * decay + sampled.offset));
+    result.worst_lyapunov_ratio = std::max(result.worst_lyapunov_ratio, W(eq, ev) / (W0 * decay + sampled.level));
+    if (k >= 0.8 * samples) result.final_velocity_error = std::max(result.final_velocity_error, ev.norm());
+    if (e > 2.0 * sampled.offset) {
+      const double y = std::log(e / e0);
+      count += 1.0, st += t, stt += t * t, sy += y, sty += t * y;
+      result.final_log_error_ratio = y;
+    }
+    if (trajectory) trajectory->push_back({t, q, v, eq, ev, e, c.k * e0 * decay + sampled.offset});
+    if (k == samples) break;
+    held_input(model, input, t, q, v, u);
+    x.assign(q.data(), q.data() + n);
+    x.insert(x.end(), v.data(), v.data() + n);
+    bool ok = inside(q, v);
+    odeint::integrate_adaptive(
+        odeint::make_controlled(options.atol, options.rtol, odeint::runge_kutta_dopri5<State>()), std::ref(plant), x, t,
+        t + T, T / 4.0, [&](const State& state, double) {
+          ok = inside(Eigen::Map<const Eigen::VectorXd>(state.data(), n), Eigen::Map<const Eigen::VectorXd>(state.data() + n, n)) && ok;
+          ++result.steps;
+        });
+    if (!ok) return result;
+    q = Eigen::Map<const Eigen::VectorXd>(x.data(), n);
+    v = Eigen::Map<const Eigen::VectorXd>(x.data() + n, n);
+    observer.update(quantised(q), u, T);
+  }
+  const double denominator = count * stt - st * st;
+  // A trial whose error starts near the floor has no decay to fit.
+  result.fitted_rate = count >= 3.0 && denominator > 0.0 ? -(count * sty - st * sy) / denominator
+                                                         : std::numeric_limits<double>::quiet_NaN();
+  return result;
+}
+
 }  // namespace
 
 TrialResult simulate_trial(const Model& model, const ObserverCertificate& certificate,
                            const Eigen::VectorXd& velocity_bounds, const TrialInitialState& initial,
                            const InputSignal& input, const SimulationOptions& options,
                            std::vector<TrajectorySample>* trajectory) {
+  if (certificate.sampled) return sampled_trial(model, certificate, velocity_bounds, initial, input, options, trajectory);
   if (model.dof() == 2)
     return integrate_trial<2>(model, certificate, velocity_bounds, initial, input, options, trajectory);
   return integrate_trial<Eigen::Dynamic>(model, certificate, velocity_bounds, initial, input, options, trajectory);

@@ -279,3 +279,68 @@ TEST(VerifyBoundsApp, RefusesBadInput) {
 }
 
 }  // namespace
+
+namespace {
+
+const std::string kDeployment = "--robot pendubot --gamma 1.27 --sample-period 0.001 --encoder-counts 4096 "
+                                "--acceleration-bounds 200";
+
+TEST(DeploymentApps, DesignGainsWritesTheDeploymentObjectAndExports) {
+  const std::string header = ::testing::TempDir() + "/obsgain_gains.hpp", yaml = ::testing::TempDir() + "/obsgain_gains.yaml";
+  const AppRun r = run("design-gains", kDeployment + " --objective velocity-error --json - --export-header " + header +
+                                           " --export-ros2 " + yaml);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  const nlohmann::json& d = j.at("deployment");
+  EXPECT_EQ(d.at("sample_period").get<double>(), 0.001);
+  EXPECT_NEAR(d.at("encoder_resolution").at(1).get<double>(), 2.0 * M_PI / 4096, 1e-15);
+  for (const char* key : {"ultimate_position_error", "ultimate_velocity_error"}) EXPECT_EQ(d.at(key).size(), 2u) << key;
+  const double v_norm = d.at("ultimate_velocity_error_norm").get<double>();
+  EXPECT_GT(v_norm, 0.5);  // the quantisation floor, certified: 1.26 rad/s (docs/usage.md)
+  EXPECT_LT(v_norm, 2.0);
+  EXPECT_GT(d.at("max_sample_period").get<double>(), 0.001);
+  for (const char* key : {"k", "gamma", "offset", "level"}) EXPECT_GT(d.at("iss_envelope").at(key).get<double>(), 0.0) << key;
+  EXPECT_TRUE(d.at("certified").get<bool>());
+  EXPECT_GE(d.at("tradeoff").size(), 5u);
+  const std::string h = read_text(header), y = read_text(yaml);
+  EXPECT_NE(h.find("inline constexpr double k1 = "), std::string::npos);
+  EXPECT_NE(h.find("inline constexpr double sample_period = 0.001;"), std::string::npos);
+  EXPECT_NE(h.find("// CERTIFIED"), std::string::npos);
+  EXPECT_NE(y.find("velocity_observer:\n  ros__parameters:\n"), std::string::npos);
+  EXPECT_NE(y.find("    alpha: 1.0\n"), std::string::npos);  // a double, as ROS 2 declares it
+  // The design file drives a sampled Monte Carlo with the same observer class.
+  const std::string design = write_temp_file("deployed_design.json", r.out);
+  const AppRun mc = run("monte-carlo", "--design " + design + " --trials 8 --horizon 0.3 --json -");
+  ASSERT_EQ(mc.exit_code, 0) << mc.err;
+  const nlohmann::json m = nlohmann::json::parse(mc.out);
+  EXPECT_EQ(m.at("envelope_violations").get<int>(), 0);
+  EXPECT_LE(m.at("sampled").at("worst_final_velocity_error").get<double>(), v_norm);
+}
+
+TEST(DeploymentApps, APeriodAboveTheLimitOrATolerancePastReachIsRefused) {
+  // The rate design (θ = 65.7) at 1 kHz: its certified ultimate velocity error (13 rad/s) exceeds the default
+  // tolerance (min V = 10): exit 1, naming the limit.
+  const AppRun rate = run("design-gains", kDeployment);
+  EXPECT_EQ(rate.exit_code, 1);
+  EXPECT_NE(rate.err.find("exceeds the tolerance"), std::string::npos) << rate.err;
+  const AppRun slow = run("design-gains", "--robot pendubot --gamma 1.27 --sample-period 0.05 --encoder-counts 4096 "
+                                          "--acceleration-bounds 200 --objective velocity-error");
+  EXPECT_EQ(slow.exit_code, 1);
+  EXPECT_NE(slow.err.find("largest sample period"), std::string::npos) << slow.err;
+}
+
+TEST(DeploymentApps, RefusesIncompleteOrBadDeployments) {
+  expect_refused("--gamma 1.27 --sample-period 0.001", "--sample-period, --encoder-counts and --acceleration-bounds");
+  expect_refused("--gamma 1.27 --objective velocity-error", "needs a deployment");
+  expect_refused(kDeployment.substr(0, kDeployment.find("--gamma")) + "--theta 100 --sample-period 0.001 "
+                 "--encoder-counts 4096 --acceleration-bounds 200 --objective velocity-error", "needs --gamma");
+  expect_refused("--gamma 1.27 --sample-period 0 --encoder-counts 4096 --acceleration-bounds 200", "--sample-period = 0");
+  expect_refused("--gamma 1.27 --sample-period 0.001 --encoder-counts 4096.5 --acceleration-bounds 200", "N1 = 4096.5");
+  expect_refused("--gamma 1.27 --sample-period 0.001 --encoder-counts 4096,4096,4096 --acceleration-bounds 200",
+                 "3 values for a robot of 2 joints");
+  expect_refused("--gamma 1.27 --sample-period 0.001 --encoder-counts 4096 --acceleration-bounds -5", "A1 = -5");
+  expect_refused("--design " + write_temp_file("empty_design.json", "{}") + " --sample-period 0.001",
+                 "--sample-period cannot be given with it", "monte-carlo");
+}
+
+}  // namespace

@@ -44,6 +44,7 @@ class IntervalDynamics {
   virtual ~IntervalDynamics() = default;
   virtual MatrixEnclosure mass_matrix(const std::vector<DualInterval>& q) const = 0;
   virtual std::vector<MatrixEnclosure> coriolis_tensors(const std::vector<DualInterval>& q) const = 0;
+  virtual MatrixEnclosure gravity(const std::vector<DualInterval>& q) const = 0;  // n x 1
   // A proven lower bound of λmin(M(q)) for every q: M is the rigid bodies' kinetic-energy matrix, positive
   // semidefinite for every q (a sum of Jᵀ m J + Jᵀ I J, m >= 0, I ⪰ 0), plus diag(armature), so
   // λmin(M) >= min_i armature_i. It makes M⁻¹ bounded on boxes too wide for interval arithmetic to see it.
@@ -68,6 +69,15 @@ std::string certification_unavailable(const Model& model);
 // evaluated on intervals (certification_unavailable says why).
 std::optional<CertifiedBounds> certify_bounds(const Model& model, const BoundReport& numeric,
                                               const CertifiedOptions& options = {});
+
+// C_q = sup ||∂h/∂q|| over the joint domain, a in the acceleration box and v in the velocity box, with
+// h(q) = M(q) a + A(q, v) + g(q): how far the model's prediction of the torque moves when it is evaluated at a
+// measured rather than the true position (the sampled observer's certificate, deployment.hpp). The budget is
+// options.budget_seconds; std::nullopt when sensitivity_unavailable says why not.
+std::string sensitivity_unavailable(const Model& model);
+std::optional<BoundBracket> certify_position_sensitivity(const Model& model, const Eigen::VectorXd& velocity_bounds,
+                                                         const Eigen::VectorXd& acceleration_bounds,
+                                                         const CertifiedOptions& options);
 
 // Replaces the report's M0, B, L_joint (and L_paper) by the brackets' upper ends: θ* then rests on
 // provable bounds.

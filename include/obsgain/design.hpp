@@ -4,6 +4,7 @@
 
 #include "obsgain/bounds.hpp"
 #include "obsgain/certified_bounds.hpp"
+#include "obsgain/deployment.hpp"
 #include "obsgain/lyapunov.hpp"
 #include "obsgain/model.hpp"
 
@@ -17,6 +18,9 @@ namespace obsgain {
 enum class CertificateKind { paper, tight };
 enum class LipschitzKind { paper, joint };
 enum class BoundMethod { certified, numeric };
+// What a --gamma design minimises: θ (the smallest gain certifying the rate), or the certified ultimate
+// velocity error of the sampled, quantised observer (needs a deployment).
+enum class DesignObjective { rate, velocity_error };
 
 struct DesignOptions {
   std::optional<double> gamma;  // target rate: θ is the smallest gain that certifies it
@@ -36,6 +40,10 @@ struct DesignOptions {
   BoundMethod bound_method = BoundMethod::certified;
   BoundOptions bounds;
   CertifiedOptions certified_bounds;
+  // The observer as deployed: sample period, encoders, acceleration box (deployment.hpp). Adds the sampled,
+  // quantised certificate to the design.
+  std::optional<DeploymentOptions> deployment;
+  DesignObjective objective = DesignObjective::rate;
   // Told the start of each phase that can take seconds (robots of more than two joints); the apps print it
   // on stderr unless --quiet.
   std::function<void(const std::string&)> progress;
@@ -79,6 +87,9 @@ struct Design {
   std::optional<double> target_gamma;
   double rate_margin = 0.0;
   CertificateSummary paper, tight;
+  DesignObjective objective = DesignObjective::rate;
+  std::optional<DeploymentCertificate> deployment;
+  std::vector<TradeoffPoint> tradeoff;  // the θ sweep of the ultimate errors at the deployment's T and δ
   std::vector<std::string> notes;     // what loading the model decided (chain, lumped bodies, armature)
   std::vector<std::string> warnings;
   // The certificate is a proof only if every bound it uses is proven: certified bounds, or an L given by the
@@ -107,6 +118,12 @@ Design design_from_bounds(const Model& model, const BoundReport& bounds, const D
 // Why a design does not meet what was asked (the apps exit 1 with this line), or empty: a --gamma request
 // needs the selected certificate to hold, on proven bounds unless the user chose --bounds numeric.
 std::string unmet_request(const Design& design, const DesignOptions& options);
+
+// The deployed design (deployment.cpp): for --objective velocity-error the (α, θ) with the smallest certified
+// ultimate velocity error that still certifies the target rate; else the rate design. Either way with the
+// sampled certificate and the trade-off sweep. `sensitivity` is C_q's bracket.
+Design deployed_design(const Model& model, const BoundReport& bounds, const DesignOptions& options,
+                       const BoundBracket& sensitivity);
 
 const char* to_string(CertificateKind kind);
 const char* to_string(LipschitzKind kind);

@@ -47,6 +47,8 @@ struct MonteCarloReport {
   int assumption_violations = 0;  // left the velocity box: proves nothing either way
   double worst_envelope_ratio = 0.0;
   double worst_lyapunov_ratio = 0.0;
+  double worst_final_velocity_error = 0.0;  // sampled: max over trials in the boxes of their final ||v̂ - v||
+  double max_acceleration_ratio = 0.0;      // sampled: max over all trials of max |q''_i| / A_i
   DecayRates decay_rate;  // fitted, over trials that stayed in the box
   ObserverCertificate certificate;
   std::uint64_t seed = 0;

@@ -66,6 +66,7 @@ class Planar2RDynamics final : public Dynamics, public IntervalDynamics {
   // The same templates on intervals, for certified bounds.
   MatrixEnclosure mass_matrix(const std::vector<DualInterval>& q) const override;
   std::vector<MatrixEnclosure> coriolis_tensors(const std::vector<DualInterval>& q) const override;
+  MatrixEnclosure gravity(const std::vector<DualInterval>& q) const override;
   const Planar2RParameters& parameters() const { return parameters_; }
 
  private:

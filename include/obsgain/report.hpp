@@ -18,6 +18,11 @@ nlohmann::json to_json(const BoundReport& bounds);
 nlohmann::json certified_json(const BoundReport& bounds);  // {M0, B, L_joint}: {lower, upper, argmax_q, boxes, seconds}
 nlohmann::json to_json(const CertificateSummary& summary);
 nlohmann::json to_json(const Design& design);
+nlohmann::json to_json(const DeploymentCertificate& deployment, const std::vector<TradeoffPoint>& tradeoff,
+                       DesignObjective objective);
+// The deployment section of the design table (rate_proven: the design's own certificate is a proof).
+std::string format_deployment(const DeploymentCertificate& deployment, const std::vector<TradeoffPoint>& tradeoff,
+                              bool rate_proven);
 
 // "(1, 2.5)": vectors in the human reports.
 std::string format_vector(const Eigen::VectorXd& v);

@@ -8,10 +8,21 @@
 
 #include <Eigen/Dense>
 
+#include <optional>
 #include <string>
 #include <vector>
 
 namespace obsgain {
+
+// The deployed observer's certificate (deployment.hpp) as a simulation checks it: at every sample,
+// W(e) = sqrt(eᵀ(P ⊗ I)e) <= e^{-γt} W(e(0)) + level and ||e|| <= k e^{-γt} ||e(0)|| + offset.
+struct SampledCertificate {
+  double sample_period = 0.0;
+  Eigen::VectorXd encoder_resolution, acceleration_bounds;
+  double L = 0.0;                  // the design's Lipschitz constant (the Observer class's sub-step length)
+  double level = 0.0, offset = 0.0;
+  double position_norm = 0.0, velocity_norm = 0.0;  // the ultimate bounds
+};
 
 // What is being validated: the gains and the certificate's envelope.
 struct ObserverCertificate {
@@ -19,6 +30,8 @@ struct ObserverCertificate {
   double gamma = 0.0;                          // certified rate
   double k = 0.0;                              // ||e(t)|| <= k ||e(0)|| e^{-γt}
   Eigen::Matrix2d P = Eigen::Matrix2d::Zero(); // V(e) = eᵀ (P ⊗ I) e, V(t) <= V(0) e^{-2γt}
+  // Set: the observer runs sampled and quantised (the Observer class), and the envelopes gain the offsets.
+  std::optional<SampledCertificate> sampled;
 };
 
 // A smooth reference q_r(t)_i = centre_i + Σ_j amplitude(i, j) sin(frequency(i, j) t + phase(i, j)).
@@ -65,13 +78,18 @@ struct TrajectorySample {
 struct TrialResult {
   bool left_velocity_box = false;    // the theorem's assumption failed: the trial proves nothing
   double max_velocity_ratio = 0.0;   // max_t max_i |v_i(t)| / V_i
+  double max_acceleration_ratio = 0.0;  // sampled: max_t max_i |q''_i(t)| / A_i (above 1: assumption failed too)
+  double final_velocity_error = 0.0;    // sampled: max ||v̂ - v|| over the last fifth of the horizon
   double worst_envelope_ratio = 0.0; // max_t ||e(t)|| / (k ||e(0)|| e^{-γt})
   double worst_lyapunov_ratio = 0.0; // max_t V(e(t)) / (V(e(0)) e^{-2γt})
-  double fitted_rate = 0.0;          // -slope of log ||e(t)|| over the horizon (least squares)
+  double fitted_rate = 0.0;          // -slope of log ||e(t)|| over the horizon (least squares); sampled: NaN when the error never rose above twice the floor
   double final_log_error_ratio = 0.0;  // log(||e(T)|| / ||e(0)||)
   int steps = 0;
 };
 
+// With certificate.sampled: the continuous plant (Odeint, input held between samples: the open-loop signal's
+// value at the sample, or the computed torque from the sampled state) and the Observer class updated at every
+// sample with the quantised position, checked there against the sampled certificate's envelopes.
 // Integrates one trial. Stops early when the plant leaves the velocity box. Thread-safe; appends the
 // dense-grid samples to trajectory when given.
 TrialResult simulate_trial(const Model& model, const ObserverCertificate& certificate,

@@ -1,0 +1,201 @@
+// The Observer class as deployed: it converges to the continuous observer as the sample period shrinks (at
+// the order of its measurement interpolation), integrates its own equations at RK4's order, refuses bad input
+// without touching its state, and allocates nothing once built. Its own executable: it replaces the global
+// malloc to count allocations.
+#include "obsgain/observer.hpp"
+#include "obsgain/planar_2r.hpp"
+#include "obsgain/robots.hpp"
+
+#include <boost/numeric/odeint.hpp>
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <cmath>
+#include <cstdlib>
+
+namespace {
+std::atomic<long> allocations{0};
+}
+
+#ifdef OBSGAIN_COUNT_ALLOCATIONS
+// Every heap allocation goes through malloc: operator new in libstdc++, and Eigen's aligned allocator. The
+// executable's definitions interpose on the C library's for the whole process, libobsgain included.
+extern "C" {
+void* __libc_malloc(std::size_t size);
+void* __libc_calloc(std::size_t count, std::size_t size);
+void* __libc_realloc(void* p, std::size_t size);
+void* malloc(std::size_t size) {
+  ++allocations;
+  return __libc_malloc(size);
+}
+void* calloc(std::size_t count, std::size_t size) {
+  ++allocations;
+  return __libc_calloc(count, size);
+}
+void* realloc(void* p, std::size_t size) {
+  ++allocations;
+  return __libc_realloc(p, size);
+}
+}
+#endif
+
+namespace obsgain {
+namespace {
+
+using State = std::vector<double>;
+namespace odeint = boost::numeric::odeint;
+
+// Gains of the Pendubot's velocity-error design at 1 kHz (docs/usage.md): θ ≈ 138, α = β = 1, L_joint.
+ObserverGains pendubot_gains(int substeps = 0) { return {138.0, 138.0 * 138.0, 43.3475, Eigen::Vector2d(10.0, 10.0), substeps}; }
+
+const Eigen::Vector2d kInput(0.4, 0.0);
+
+// Plant and observer driven by the plant's exact q(t), written out here independently of the library's
+// simulation: x = (q, v, q̂, v̂). With `held` set, the observer sees y(t) interpolated between the samples instead.
+struct Reference {
+  const Model& model;
+  const ObserverGains& g;
+  std::function<Eigen::VectorXd(double)> held;  // y(t); empty: the plant's own q(t)
+  void operator()(const State& x, State& dx, double t) const {
+    const int n = model.dof();
+    const Eigen::Map<const Eigen::VectorXd> q(x.data(), n), v(x.data() + n, n), qh(x.data() + 2 * n, n),
+        vh(x.data() + 3 * n, n);
+    const auto acceleration = [&](const Eigen::VectorXd& at, const Eigen::VectorXd& w, const Eigen::VectorXd& vf) {
+      Eigen::MatrixXd M(n, n);
+      Eigen::VectorXd A(n), gr(n);
+      model.dynamics->mass_matrix(at, M);
+      model.dynamics->coriolis(at, w, A);
+      model.dynamics->gravity(at, gr);
+      return Eigen::VectorXd(M.llt().solve(model.input_matrix * kInput - A - model.friction * vf - gr));
+    };
+    const Eigen::VectorXd y = held ? held(t) : Eigen::VectorXd(q);
+    const Eigen::VectorXd sat = vh.cwiseMax(-g.velocity_bounds).cwiseMin(g.velocity_bounds);
+    Eigen::Map<Eigen::VectorXd>(dx.data(), n) = v;
+    Eigen::Map<Eigen::VectorXd>(dx.data() + n, n) = acceleration(q, v, v);
+    Eigen::Map<Eigen::VectorXd>(dx.data() + 2 * n, n) = vh - g.k1 * (qh - y);
+    Eigen::Map<Eigen::VectorXd>(dx.data() + 3 * n, n) = acceleration(y, sat, vh) - g.k2 * (qh - y);
+  }
+};
+
+State initial_state() { return {-1.2, 0.3, 1.0, -1.5, -1.2 + 0.05, 0.3 - 0.02, 0.0, 0.0}; }
+
+// The plant's positions at t = 0, T, 2T, ... (exact, no quantisation), and the reference state at the end.
+std::vector<Eigen::VectorXd> plant_samples(const Model& model, const ObserverGains& g, double T, int count) {
+  Reference system{model, g, {}};
+  State x = initial_state();
+  std::vector<Eigen::VectorXd> samples{Eigen::Vector2d(x[0], x[1])};
+  for (int k = 0; k < count; ++k) {
+    odeint::integrate_adaptive(odeint::make_controlled(1e-13, 1e-13, odeint::runge_kutta_dopri5<State>()), system, x,
+                               k * T, (k + 1) * T, T / 8);
+    samples.emplace_back(Eigen::Vector2d(x[0], x[1]));
+  }
+  return samples;
+}
+
+Eigen::VectorXd run_class(const Model& model, const ObserverGains& g, double T, const std::vector<Eigen::VectorXd>& y) {
+  Observer observer(model, g);
+  const State x0 = initial_state();
+  observer.reset(y[0], Eigen::Vector2d(x0[4], x0[5]), Eigen::Vector2d(x0[6], x0[7]));
+  for (std::size_t k = 1; k < y.size(); ++k) EXPECT_TRUE(observer.update(y[k], kInput, T).accepted);
+  Eigen::VectorXd out(4);
+  out << observer.position(), observer.velocity();
+  return out;
+}
+
+TEST(Observer, ConvergesToTheContinuousObserverAtTheInterpolationOrder) {
+  const Model model = pendubot();
+  const ObserverGains g = pendubot_gains();
+  const double horizon = 0.2;
+  Reference continuous{model, g, {}};
+  State x = initial_state();
+  odeint::integrate_adaptive(odeint::make_controlled(1e-13, 1e-13, odeint::runge_kutta_dopri5<State>()), continuous, x,
+                             0.0, horizon, 1e-4);
+  const Eigen::Vector4d truth(x[4], x[5], x[6], x[7]);
+  std::vector<double> errors;
+  for (const int count : {50, 100, 200, 400}) {
+    const double T = horizon / count;
+    errors.push_back((run_class(model, g, T, plant_samples(model, g, T, count)) - truth).norm());
+  }
+  // Linear interpolation of the samples misses q(t) by O(T²): each halving of T divides the gap by about 4.
+  for (std::size_t i = 1; i < errors.size(); ++i) {
+    const double ratio = errors[i - 1] / errors[i];
+    EXPECT_GT(ratio, 3.5) << "T = " << horizon / (50 << i);
+    EXPECT_LT(ratio, 4.5) << "T = " << horizon / (50 << i);
+  }
+  EXPECT_LT(errors.back(), 1e-4);
+}
+
+TEST(Observer, IntegratesItsOwnEquationsAtFourthOrder) {
+  const Model model = pendubot();
+  const double T = 4e-3, horizon = 0.2;
+  const int count = static_cast<int>(horizon / T + 0.5);
+  const std::vector<Eigen::VectorXd> y = plant_samples(model, pendubot_gains(), T, count);
+  // The exact flow of the sampled observer: the same equations with y(t) interpolated between the samples.
+  Reference sampled{model, pendubot_gains(), [&](double t) {
+                      const auto k = std::min<std::size_t>(static_cast<std::size_t>(t / T), y.size() - 2);
+                      const double s = (t - static_cast<double>(k) * T) / T;
+                      return Eigen::VectorXd(y[k] + s * (y[k + 1] - y[k]));
+                    }};
+  State x = initial_state();
+  for (int k = 0; k < count; ++k)  // piecewise, so that the integrator never steps across a kink of y(t)
+    odeint::integrate_adaptive(odeint::make_controlled(1e-14, 1e-14, odeint::runge_kutta_dopri5<State>()), sampled, x,
+                               k * T, (k + 1) * T, T / 16);
+  const Eigen::Vector4d flow(x[4], x[5], x[6], x[7]);
+  std::vector<double> errors;
+  for (const int substeps : {1, 2, 4, 8}) errors.push_back((run_class(model, pendubot_gains(substeps), T, y) - flow).norm());
+  for (std::size_t i = 1; i < errors.size(); ++i) {
+    const double ratio = errors[i - 1] / errors[i];
+    EXPECT_GT(ratio, 12.0) << "substeps " << (1 << i);
+    EXPECT_LT(ratio, 20.0) << "substeps " << (1 << i);
+  }
+  // With the automatic sub-step count (3 here) the integration error is far below half a count of a 4096-count
+  // encoder (7.7e-4 rad), the floor the deployment certificate is made of.
+  EXPECT_LT((run_class(model, pendubot_gains(), T, y) - flow).norm(), 1e-5);
+}
+
+TEST(Observer, RefusesBadInputAndKeepsItsState) {
+  const Model model = pendubot();
+  Observer observer(model, pendubot_gains());
+  ASSERT_TRUE(observer.reset(Eigen::Vector2d(0.1, 0.2)));
+  const Eigen::Vector2d q = observer.position(), v = observer.velocity();
+  const double nan = std::nan("");
+  EXPECT_FALSE(observer.update(Eigen::Vector2d(nan, 0.0), kInput, 1e-3).accepted);
+  EXPECT_FALSE(observer.update(Eigen::Vector2d(0.1, 0.2), Eigen::Vector2d(nan, 0.0), 1e-3).accepted);
+  EXPECT_FALSE(observer.update(Eigen::Vector2d(0.1, 0.2), kInput, 0.0).accepted);
+  EXPECT_FALSE(observer.update(Eigen::Vector2d(0.1, 0.2), kInput, -1e-3).accepted);
+  EXPECT_FALSE(observer.update(Eigen::Vector2d(0.1, 0.2), kInput, 1e9).accepted);  // beyond max_substeps
+  EXPECT_FALSE(observer.update(Eigen::Vector3d(0.1, 0.2, 0.3), kInput, 1e-3).accepted);
+  EXPECT_EQ(observer.position(), q);
+  EXPECT_EQ(observer.velocity(), v);
+  EXPECT_TRUE(observer.update(Eigen::Vector2d(0.1, 0.2), kInput, 1e-3).accepted);
+  EXPECT_THROW(Observer(model, ObserverGains{-1.0, 1.0, 0.0, Eigen::Vector2d(1, 1), 0}), InputError);
+  EXPECT_THROW(Observer(model, ObserverGains{1.0, 1.0, 0.0, Eigen::Vector3d(1, 1, 1), 0}), InputError);
+}
+
+void expect_no_allocation(const Model& model, const ObserverGains& gains) {
+  const long at_start = allocations.load();
+  Observer observer(model, gains);
+  EXPECT_GT(allocations.load(), at_start) << "the counter counts: construction sizes the buffers";
+  const int n = model.dof();
+  const Eigen::VectorXd u = Eigen::VectorXd::Constant(model.input_matrix.cols(), 0.1);
+  Eigen::VectorXd y = Eigen::VectorXd::Constant(n, 0.2);
+  observer.reset(y);
+  const long before = allocations.load();
+  for (int k = 0; k < 200; ++k) {
+    y(0) += 1e-4;
+    observer.update(y, u, 1e-3);
+  }
+  EXPECT_EQ(allocations.load() - before, 0) << model.name;
+}
+
+TEST(Observer, AllocatesNothingAfterConstruction) {
+#ifndef OBSGAIN_COUNT_ALLOCATIONS
+  GTEST_SKIP() << "sanitizer build: AddressSanitizer owns malloc, the plain build counts";
+#endif
+  expect_no_allocation(pendubot(), pendubot_gains());
+  const Model arm7 = load_robot(RobotSource{OBSGAIN_EXAMPLES_DIR "/arm7.urdf"});
+  expect_no_allocation(arm7, ObserverGains{20.0, 400.0, 3.0, Eigen::VectorXd::Constant(7, 1.5), 0});
+}
+
+}  // namespace
+}  // namespace obsgain
