@@ -10,7 +10,9 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <iterator>
 #include <sstream>
+#include <unistd.h>
 
 namespace obsgain {
 
@@ -109,6 +111,30 @@ void add_design_options(CLI::App& app, DesignArguments& a) {
   a.given.assign(options.begin() + static_cast<std::ptrdiff_t>(before), options.end());
 }
 
+namespace {
+
+bool progress_line_open = false;
+
+}  // namespace
+
+void close_progress_line() {
+  if (progress_line_open) std::cerr << "\r\033[K" << std::flush;
+  progress_line_open = false;
+}
+
+namespace {
+
+void print_search_progress(const SearchProgress& p) {
+  const std::string left = p.seconds_left >= 0.0 ? fmt::format("at most {:.1f} s left", p.seconds_left)
+                                                  : std::string("no budget: until the gap");
+  std::cerr << fmt::format("\r\033[K  {}: {} boxes, [{:.8g}, {:.8g}], gap {:.1e} (target {:.0e}), {:.0f} s, {}",
+                           p.bound, p.boxes, p.lower, p.upper, p.relative_gap, p.target_gap, p.seconds, left)
+            << std::flush;
+  progress_line_open = true;
+}
+
+}  // namespace
+
 DesignOptions to_design_options(const DesignArguments& a) {
   // An option given with an empty value ("--vmax ''") would otherwise read as not given at all.
   for (const CLI::Option* option : a.given)
@@ -123,7 +149,15 @@ DesignOptions to_design_options(const DesignArguments& a) {
   if (!a.alpha.empty()) o.alpha = parse_number("alpha", a.alpha);
   if (!a.beta.empty()) o.beta = parse_number("beta", a.beta);
   o.optimize_shape = a.optimize_shape;
-  if (!a.quiet) o.progress = [](const std::string& phase) { std::cerr << phase << std::endl; };
+  // Progress on stderr: one line per phase (robots of more than two joints); on a terminal also the running
+  // searches' boxes, bracket, gap and time left, rewritten in place.
+  const bool terminal = !a.quiet && isatty(STDERR_FILENO) != 0;
+  if (!a.quiet)
+    o.progress = [](const std::string& phase) {
+      close_progress_line();
+      std::cerr << phase << std::endl;
+    };
+  if (terminal) o.certified_bounds.progress = print_search_progress;
   o.lipschitz = a.lipschitz == "paper" ? LipschitzKind::paper : LipschitzKind::joint;
   o.certificate = a.certificate == "paper" ? CertificateKind::paper : CertificateKind::tight;
   o.bound_method = a.bounds == "numeric" ? BoundMethod::numeric : BoundMethod::certified;
@@ -153,6 +187,7 @@ DesignOptions to_design_options(const DesignArguments& a) {
     const double budget = o.certified_bounds.budget_seconds;
     d.sensitivity.budget_seconds = budget > 0.0 ? std::clamp(0.1 * budget, 1.0, 60.0) : 60.0;
     d.sensitivity.relative_gap = 5e-2;
+    d.sensitivity.progress = o.certified_bounds.progress;
     o.deployment = d;
   }
   validate_design_options(o);
@@ -274,13 +309,13 @@ ValidationTarget load_validation_target(const DesignArguments& design, const std
                        " cannot be given with it");
   std::ifstream file(design_file);
   if (!file) throw InputError("cannot read design file '" + design_file + "'");
-  nlohmann::json j;
+  const std::string text{std::istreambuf_iterator<char>(file), std::istreambuf_iterator<char>()};
+  SavedDesign saved;
   try {
-    file >> j;
-  } catch (const nlohmann::json::exception& e) {
-    throw InputError("design file '" + design_file + "' is not valid JSON: " + e.what());
+    saved = saved_design_from_json_text(text);
+  } catch (const InputError& e) {
+    throw InputError("design file '" + design_file + "': " + e.what());
   }
-  SavedDesign saved = saved_design_from_json(j);
   Model model = load_robot(saved.robot);
   if (!saved.fingerprint.empty() && saved.fingerprint != model.fingerprint)
     throw InputError("design file '" + design_file + "' was made for another version of '" + saved.robot.robot +
@@ -304,11 +339,15 @@ int run_app(CLI::App& app, int argc, char** argv, const std::function<int()>& bo
     return 2;
   }
   try {
-    return body();
+    const int code = body();
+    close_progress_line();
+    return code;
   } catch (const InputError& e) {
+    close_progress_line();
     std::cerr << app.get_name() << ": error: " << e.what() << "\n";
     return 2;
   } catch (const std::exception& e) {
+    close_progress_line();
     std::cerr << app.get_name() << ": internal error: " << e.what() << "\n";
     return 3;
   }

@@ -55,6 +55,9 @@ double parse_number(const std::string& name, const std::string& text);
 // "1,2.5,3" -> (1, 2.5, 3).
 Eigen::VectorXd parse_number_list(const std::string& name, const std::string& text);
 
+// Clears the terminal's progress line (written in place while searches run) before other output.
+void close_progress_line();
+
 // Runs an app's body: bad input (InputError, CLI11 parse errors) prints one line on stderr and exits 2;
 // --help prints and exits 0; anything else unexpected prints and exits 3.
 int run_app(CLI::App& app, int argc, char** argv, const std::function<int()>& body);

@@ -31,8 +31,9 @@ int main(int argc, char** argv) {
     const obsgain::DesignOptions options = obsgain::to_design_options(arguments);
     const obsgain::Model model = obsgain::load_robot(obsgain::to_robot_source(arguments));
     const obsgain::Design design = obsgain::design_gains(model, options);
+    obsgain::close_progress_line();
     std::cerr << obsgain::format_warnings(design);
-    const std::string text = obsgain::to_json(design).dump(2) + "\n";
+    const std::string text = obsgain::to_json_text(design);
     if (json->count() > 0 && (json_path.empty() || json_path == "-")) {  // "-": stdout, as usual
       std::cout << text;
     } else {

@@ -29,12 +29,12 @@ int main(int argc, char** argv) {
     const obsgain::MonteCarloReport report =
         obsgain::run_monte_carlo(target.model, target.velocity_bounds, target.certificate, options);
     if (json->count() > 0 && (json_path.empty() || json_path == "-")) {  // "-": stdout, as usual
-      std::cout << obsgain::to_json(report).dump(2) << "\n";
+      std::cout << obsgain::to_json_text(report);
     } else {
       std::cout << obsgain::format_report(report);
       if (json->count() > 0) {
         std::ofstream file(json_path);
-        if (!(file << obsgain::to_json(report).dump(2) << "\n"))
+        if (!(file << obsgain::to_json_text(report)))
           throw obsgain::InputError("cannot write JSON to '" + json_path + "'");
       }
     }

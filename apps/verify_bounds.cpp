@@ -31,6 +31,7 @@ int main(int argc, char** argv) {
     const obsgain::VerificationReport report = obsgain::verify_design(model, options);
     if (options.design.progress && model.dof() > 2) options.design.progress("writing the report and its plots");
     const obsgain::WrittenReport written = obsgain::write_verification_report(report, out);
+    obsgain::close_progress_line();
     std::cerr << obsgain::format_warnings(report.design);
     std::cout << obsgain::format_report(report.design) << "\n" << obsgain::format_report(report.monte_carlo) << "\n";
     std::cout << "report: " << written.html << "\n       " << written.json << "\n";

@@ -303,8 +303,10 @@ struct Box {
 // may stop refining once it is sure the box is below `lower` (the running best attained value).
 BoundBracket branch_and_bound(const SearchDomain& s, const std::function<BoxBound(const BoxPoint&, double)>& upper,
                               const std::function<double(const Eigen::VectorXd&)>& point, const Eigen::VectorXd& seed,
-                              const CertifiedOptions& options, std::chrono::steady_clock::time_point deadline) {
+                              const CertifiedOptions& options, std::chrono::steady_clock::time_point deadline,
+                              const char* name) {
   const auto start = std::chrono::steady_clock::now();
+  auto next_report = start + std::chrono::seconds(1);
   BoundBracket bracket;
   bracket.argmax = seed;
   bracket.lower = point(seed);
@@ -376,6 +378,21 @@ BoundBracket branch_and_bound(const SearchDomain& s, const std::function<BoxBoun
           queue.push(std::move(child));
         else
           pruned_upper = std::max(pruned_upper, child.upper);
+      }
+      if (options.progress && std::chrono::steady_clock::now() >= next_report) {
+        const auto now = std::chrono::steady_clock::now();
+        next_report = now + std::chrono::milliseconds(250);
+        SearchProgress p;
+        p.bound = name;
+        p.boxes = bracket.boxes;
+        p.lower = bracket.lower;
+        p.upper = std::max({queue.empty() ? 0.0 : queue.top().upper, pruned_upper, in_flight.empty() ? 0.0 : *in_flight.rbegin()});
+        p.relative_gap = p.upper > 0.0 ? (p.upper - p.lower) / p.upper : 0.0;
+        p.target_gap = options.relative_gap;
+        p.seconds = std::chrono::duration<double>(now - start).count();
+        if (deadline != std::chrono::steady_clock::time_point::max())
+          p.seconds_left = std::max(0.0, std::chrono::duration<double>(deadline - now).count());
+        options.progress(p);
       }
       changed.notify_all();
     }
@@ -499,7 +516,7 @@ std::optional<CertifiedBounds> certify_bounds(const Model& model, const BoundRep
     return bound;
   };
   result.L_joint = branch_and_bound(s, l_upper, [&](const Eigen::VectorXd& q) { return max_joint_lipschitz_norm(model, q, V); },
-                                    numeric.L_joint.q, options, deadline_for(3));
+                                    numeric.L_joint.q, options, deadline_for(3), "L_joint");
 
   // M0 = sup 1/λmin(M): a box whose M cannot be shown positive definite gets +∞ and is split further.
   const auto b_upper = [&](const BoxPoint& b, double lower) {
@@ -519,7 +536,7 @@ std::optional<CertifiedBounds> certify_bounds(const Model& model, const BoundRep
     return bound;
   };
   result.B = branch_and_bound(s, b_upper, [&](const Eigen::VectorXd& q) { return max_coriolis_jacobian_norm(model, q, V); },
-                              numeric.B.q, options, deadline_for(2));
+                              numeric.B.q, options, deadline_for(2), "B");
 
   const auto m0_upper = [&](const BoxPoint& b, double) {
     const Centred M = mass_centred(dynamics, b);
@@ -529,7 +546,7 @@ std::optional<CertifiedBounds> certify_bounds(const Model& model, const BoundRep
     return bound;
   };
   result.M0 = branch_and_bound(s, m0_upper, [&](const Eigen::VectorXd& q) { return inverse_inertia_norm(model, q); },
-                               numeric.M0.q, options, deadline_for(1));
+                               numeric.M0.q, options, deadline_for(1), "M0");
 
   return result;
 }
@@ -665,7 +682,7 @@ std::optional<BoundBracket> certify_position_sensitivity(const Model& model, con
                                             std::chrono::duration<double>(options.budget_seconds));
   Eigen::VectorXd seed(n);
   for (int j = 0; j < n; ++j) seed(j) = centre(s.domain[j]);
-  return branch_and_bound(s, box_upper, point, seed, options, deadline);
+  return branch_and_bound(s, box_upper, point, seed, options, deadline, "C_q");
 }
 
 }  // namespace obsgain

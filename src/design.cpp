@@ -193,11 +193,15 @@ BoundReport design_bounds(const Model& model, const Eigen::VectorXd& V, const De
 }
 
 std::string unmet_request(const Design& d, const DesignOptions& options) {
-  if (d.deployment && d.selected().certified && !d.deployment->within_tolerance())
-    return fmt::format("at T = {:g} s the certified ultimate velocity error {:.4g} exceeds the tolerance {:.4g} "
-                       "(largest sample period within it: {:.4g} s)",
-                       d.deployment->sample_period, d.deployment->bounds.velocity_norm,
-                       d.deployment->velocity_error_tolerance, d.deployment->max_sample_period);
+  if (d.deployment && d.selected().certified && !d.deployment->within_tolerance()) {
+    const DeploymentCertificate& dep = *d.deployment;
+    return fmt::format("at T = {:g} s the certified ultimate velocity error {:.4g} exceeds the tolerance {:.4g} ({})",
+                       dep.sample_period, dep.bounds.velocity_norm, dep.velocity_error_tolerance,
+                       dep.max_sample_period > 0.0
+                           ? fmt::format("largest sample period within it: {:.4g} s", dep.max_sample_period)
+                           : std::string("no sample period is within it at these gains and encoders: try --objective "
+                                         "velocity-error, finer encoders or --velocity-error-tolerance"));
+  }
   if (!options.gamma) return {};
   if (!d.selected().certified) return fmt::format("the design does not certify gamma = {}", *options.gamma);
   if (!d.proven() && options.bound_method == BoundMethod::certified)

@@ -349,7 +349,7 @@ WrittenReport write_verification_report(const VerificationReport& r, const std::
   WrittenReport written;
   written.json = (dir / "report.json").string();
   written.html = (dir / "report.html").string();
-  write_file(dir / "report.json", to_json(r).dump(2) + "\n");
+  write_file(dir / "report.json", to_json_text(r));
 
   const std::vector<Plot> plot_list = plots(r);
   std::vector<std::string> svgs;

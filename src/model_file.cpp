@@ -1,5 +1,7 @@
 #include "obsgain/model_file.hpp"
 
+#include "json.hpp"
+
 #include "obsgain/planar_2r.hpp"
 
 #include <fmt/format.h>
@@ -8,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <set>
+#include <sstream>
 
 namespace obsgain {
 
@@ -101,17 +104,29 @@ Model model_from_json(const nlohmann::json& j, const std::string& source) {
   return make_planar_2r(j["name"].get<std::string>(), parameters, friction, H, V);
 }
 
+namespace {
+
+nlohmann::json parse_model(std::istream& in, const std::string& source) {
+  try {
+    return nlohmann::json::parse(in);
+  } catch (const nlohmann::json::exception& e) {  // syntax, and numbers such as 1e999 that overflow a double
+    throw InputError("model file '" + source + "' is not valid JSON: " + e.what());
+  }
+}
+
+}  // namespace
+
+Model model_from_json_text(const std::string& text, const std::string& source) {
+  std::istringstream in(text);
+  return model_from_json(parse_model(in, source), source);
+}
+
 Model load_model_file(const std::string& path, const std::vector<double>& armature) {
   std::error_code error;
   if (!std::filesystem::is_regular_file(path, error)) throw InputError("cannot read model file '" + path + "' (not a file)");
   std::ifstream file(path);
   if (!file) throw InputError("cannot read model file '" + path + "'");
-  nlohmann::json j;
-  try {
-    file >> j;
-  } catch (const nlohmann::json::exception& e) {  // syntax, and numbers such as 1e999 that overflow a double
-    throw InputError("model file '" + path + "' is not valid JSON: " + e.what());
-  }
+  nlohmann::json j = parse_model(file, path);
   if (!armature.empty()) {
     if (armature.size() != 2) throw InputError(fmt::format("armature: the model has 2 joints, got {} values", armature.size()));
     j["armature"] = armature;

@@ -1,5 +1,7 @@
 #include "obsgain/montecarlo.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -163,6 +165,9 @@ MonteCarloReport run_monte_carlo(const Model& model, const Eigen::VectorXd& V, c
   if (!(certificate.gamma > 0.0) || !(certificate.k >= 1.0))
     throw InputError("the certificate to validate needs gamma > 0 and k >= 1");
   validate_velocity_bounds(model, V);
+  if (certificate.sampled && options.simulation.horizon / certificate.sampled->sample_period > 1e7)
+    throw InputError(fmt::format("horizon = {} s is more than 1e7 samples of {} s", options.simulation.horizon,
+                                 certificate.sampled->sample_period));
 
   const auto start = std::chrono::steady_clock::now();
   MonteCarloReport report;

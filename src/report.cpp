@@ -1,5 +1,7 @@
 #include "obsgain/report.hpp"
 
+#include "json.hpp"
+
 #include <fmt/format.h>
 
 #include <cmath>
@@ -180,6 +182,41 @@ nlohmann::json to_json(const Design& d) {
   return j;
 }
 
+namespace {
+
+// The deployment section of the design table (rate_proven: the design's own certificate is a proof).
+std::string format_deployment(const DeploymentCertificate& c, const std::vector<TradeoffPoint>& tradeoff,
+                              bool rate_proven) {
+  std::ostringstream out;
+  const SampledErrorBounds& b = c.bounds;
+  out << fmt::format("Deployment: sampled every T = {:g} s, encoders of {} rad, |q''_i| <= {}\n", c.sample_period,
+                     format_vector(c.encoder_resolution), format_vector(c.acceleration_bounds));
+  out << fmt::format("  measurement error |y_i - q_i| <= d_i = delta_i/2 + A_i T^2/8 = {}\n", format_vector(c.measurement_error));
+  out << fmt::format("  C_q = sup ||d/dq (M a + A + g)||  [{:.6g}, {:.6g}] ({} boxes, {:.2f} s); M0 C_q = {:.6g}\n",
+                     c.position_sensitivity.lower, c.position_sensitivity.upper, c.position_sensitivity.boxes,
+                     c.position_sensitivity.seconds, c.model_gain);
+  const bool proven = c.proven() && rate_proven;
+  out << fmt::format("  {}: ||e(t)|| <= {:.6g} ||e(0)|| exp(-{:.6g} t) + {:.4g}\n",
+                     proven ? "certified" : "estimate (not proven)", c.k, c.gamma, b.offset);
+  out << fmt::format("  ultimate errors: ||q^ - q|| <= {:.4g} rad, ||v^ - v|| <= {:.4g} rad/s (each joint too)\n",
+                     b.position_norm, b.velocity_norm);
+  out << fmt::format("  largest sample period keeping ||v^ - v|| <= {:.4g}: {:.4g} s; the Observer class takes {} RK4 "
+                     "sub-step(s) per sample\n",
+                     c.velocity_error_tolerance, c.max_sample_period, c.substeps);
+  if (!c.proven()) out << "  not proven: " << c.not_proven_reason << "\n";
+  if (!tradeoff.empty()) {
+    out << "  trade-off (faster convergence vs smaller error floor, same T and encoders):\n";
+    out << fmt::format("    {:>12} {:>10} {:>12} {:>10} {:>14} {:>14}\n", "theta", "alpha", "gamma", "k", "||e_q|| ult",
+                       "||e_v|| ult");
+    for (const TradeoffPoint& p : tradeoff)
+      out << fmt::format("    {:>12.6g} {:>10.5g} {:>12.6g} {:>10.4g} {:>14.4g} {:>14.4g}\n", p.theta, p.alpha, p.gamma,
+                         p.k, p.position_norm, p.velocity_norm);
+  }
+  return out.str();
+}
+
+}  // namespace
+
 std::string format_report(const Design& d) {
   std::ostringstream out;
   const auto& b = d.bounds;
@@ -237,36 +274,6 @@ std::string format_report(const Design& d) {
     out << "  NOT CERTIFIED\n";
   }
   if (d.deployment) out << "\n" << format_deployment(*d.deployment, d.tradeoff, d.proven() && s.certified);
-  return out.str();
-}
-
-std::string format_deployment(const DeploymentCertificate& c, const std::vector<TradeoffPoint>& tradeoff,
-                              bool rate_proven) {
-  std::ostringstream out;
-  const SampledErrorBounds& b = c.bounds;
-  out << fmt::format("Deployment: sampled every T = {:g} s, encoders of {} rad, |q''_i| <= {}\n", c.sample_period,
-                     format_vector(c.encoder_resolution), format_vector(c.acceleration_bounds));
-  out << fmt::format("  measurement error |y_i - q_i| <= d_i = delta_i/2 + A_i T^2/8 = {}\n", format_vector(c.measurement_error));
-  out << fmt::format("  C_q = sup ||d/dq (M a + A + g)||  [{:.6g}, {:.6g}] ({} boxes, {:.2f} s); M0 C_q = {:.6g}\n",
-                     c.position_sensitivity.lower, c.position_sensitivity.upper, c.position_sensitivity.boxes,
-                     c.position_sensitivity.seconds, c.model_gain);
-  const bool proven = c.proven() && rate_proven;
-  out << fmt::format("  {}: ||e(t)|| <= {:.6g} ||e(0)|| exp(-{:.6g} t) + {:.4g}\n",
-                     proven ? "certified" : "estimate (not proven)", c.k, c.gamma, b.offset);
-  out << fmt::format("  ultimate errors: ||q^ - q|| <= {:.4g} rad, ||v^ - v|| <= {:.4g} rad/s (each joint too)\n",
-                     b.position_norm, b.velocity_norm);
-  out << fmt::format("  largest sample period keeping ||v^ - v|| <= {:.4g}: {:.4g} s; the Observer class takes {} RK4 "
-                     "sub-step(s) per sample\n",
-                     c.velocity_error_tolerance, c.max_sample_period, c.substeps);
-  if (!c.proven()) out << "  not proven: " << c.not_proven_reason << "\n";
-  if (!tradeoff.empty()) {
-    out << "  trade-off (faster convergence vs smaller error floor, same T and encoders):\n";
-    out << fmt::format("    {:>12} {:>10} {:>12} {:>10} {:>14} {:>14}\n", "theta", "alpha", "gamma", "k", "||e_q|| ult",
-                       "||e_v|| ult");
-    for (const TradeoffPoint& p : tradeoff)
-      out << fmt::format("    {:>12.6g} {:>10.5g} {:>12.6g} {:>10.4g} {:>14.4g} {:>14.4g}\n", p.theta, p.alpha, p.gamma,
-                         p.k, p.position_norm, p.velocity_norm);
-  }
   return out.str();
 }
 
@@ -438,16 +445,37 @@ SavedDesign saved_design_from_json(const nlohmann::json& j) {
       c.offset = dep.at("iss_envelope").at("offset").get<double>();
       c.position_norm = dep.at("ultimate_position_error_norm").get<double>();
       c.velocity_norm = dep.at("ultimate_velocity_error_norm").get<double>();
-      for (const double x : {c.sample_period, c.L, c.level, c.offset})
-        if (!(x > 0.0) || !std::isfinite(x)) throw InputError("deployment: sample_period, L_used, level and offset must be positive");
-      if ((c.encoder_resolution.array() <= 0.0).any() || (c.acceleration_bounds.array() <= 0.0).any())
-        throw InputError("deployment: encoder_resolution and acceleration_bounds must be positive");
+      for (const double x : {c.L, c.level, c.offset})
+        if (!(x > 0.0) || !std::isfinite(x)) throw InputError("deployment: L_used, level and offset must be positive");
+      DeploymentOptions ranges;  // the ranges design-gains accepts
+      ranges.sample_period = c.sample_period;
+      ranges.encoder_resolution = c.encoder_resolution;
+      ranges.acceleration_bounds = c.acceleration_bounds;
+      try {
+        validate_deployment_options(ranges, static_cast<int>(saved.velocity_bounds.size()));
+      } catch (const InputError& e) {
+        throw InputError(std::string("the design file's deployment: ") + e.what());
+      }
       saved.certificate.sampled = c;
     }
     return saved;
   } catch (const nlohmann::json::exception& e) {
     throw InputError(std::string("not a design-gains JSON: ") + e.what());
   }
+}
+
+std::string to_json_text(const Design& design) { return to_json(design).dump(2) + "\n"; }
+std::string to_json_text(const MonteCarloReport& report) { return to_json(report).dump(2) + "\n"; }
+std::string to_json_text(const VerificationReport& report) { return to_json(report).dump(2) + "\n"; }
+
+SavedDesign saved_design_from_json_text(const std::string& text) {
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(text);
+  } catch (const nlohmann::json::exception& e) {
+    throw InputError(std::string("not valid JSON: ") + e.what());
+  }
+  return saved_design_from_json(j);
 }
 
 }  // namespace obsgain

@@ -1,3 +1,4 @@
+#include "json.hpp"
 #include "obsgain/certified_bounds.hpp"
 #include "obsgain/design.hpp"
 #include "obsgain/planar_2r.hpp"
@@ -196,6 +197,32 @@ TEST(ArmBrackets, ThreeJointArmBracketsContainTheGridAndTightenWithTheBudget) {
   for (const auto* bracket : {&converged.M0, &converged.B, &converged.L_joint})
     EXPECT_LE(bracket->upper - bracket->lower, 1e-2 * bracket->upper);
   EXPECT_GE(converged.L_joint.lower, grid.L * (1 - 1e-12));
+}
+
+// A search longer than a second reports where it stands, about four times a second: the bracket it reports
+// narrows, its boxes grow, and the time left never exceeds the bound's share of the budget.
+TEST(ArmBrackets, LongSearchesReportProgress) {
+  const obsgain::Model arm = obsgain::load_robot({examples + "/arm3.urdf"});
+  const obsgain::BoundReport numeric = light_search(arm);
+  obsgain::CertifiedOptions options;
+  options.budget_seconds = 3.6;  // 1.2 s per bound
+  std::vector<obsgain::SearchProgress> reports;
+  options.progress = [&](const obsgain::SearchProgress& p) { reports.push_back(p); };
+  obsgain::certify_bounds(arm, numeric, options);
+  ASSERT_FALSE(reports.empty());
+  const std::string first = reports.front().bound;
+  EXPECT_EQ(first, "L_joint");
+  for (std::size_t i = 0; i < reports.size(); ++i) {
+    const obsgain::SearchProgress& p = reports[i];
+    EXPECT_GE(p.seconds, 1.0);
+    EXPECT_LE(p.seconds_left, 1.2 + 0.5);
+    EXPECT_LE(p.lower, p.upper);
+    EXPECT_NEAR(p.relative_gap, (p.upper - p.lower) / p.upper, 1e-12);
+    if (i > 0 && std::string(p.bound) == reports[i - 1].bound) {
+      EXPECT_GT(p.boxes, reports[i - 1].boxes);
+      EXPECT_LE(p.upper, reports[i - 1].upper);
+    }
+  }
 }
 
 // Six joints: random configurations and random points of the velocity box never exceed the proven upper ends,

@@ -1,3 +1,4 @@
+#include "json.hpp"
 #include "obsgain/certificate.hpp"
 #include "obsgain/design.hpp"
 #include "obsgain/planar_2r.hpp"

@@ -3,6 +3,7 @@
 // the text cut short) must load or be refused with an InputError naming the problem: never another exception,
 // a crash (the suite also runs under AddressSanitizer), or a hang.
 #include "test_files.hpp"
+#include "json.hpp"
 #include "obsgain/design.hpp"
 #include "obsgain/planar_2r.hpp"
 #include "obsgain/report.hpp"
@@ -79,7 +80,15 @@ TEST(Fuzz, DesignFilesLoadOrAreRefused) {
   obsgain::DesignOptions options;
   options.gamma = 1.27;
   options.bound_method = obsgain::BoundMethod::numeric;
+  // With a deployment object, whose reader is the longest.
+  obsgain::DeploymentOptions deployment;
+  deployment.sample_period = 1e-3;
+  deployment.encoder_resolution = Eigen::Vector2d::Constant(1.5e-3);
+  deployment.acceleration_bounds = Eigen::Vector2d::Constant(200.0);
+  deployment.sensitivity.relative_gap = 5e-2;
+  options.deployment = deployment;
   const std::string seed = obsgain::to_json(obsgain::design_gains(obsgain::pendubot(), options)).dump(1);
+  ASSERT_NE(seed.find("\"deployment\""), std::string::npos);
   expect_only_input_errors(seed, ".design.json", 600, [](const std::string& path) {
     std::ifstream file(path);
     nlohmann::json j;

@@ -1,3 +1,4 @@
+#include "json.hpp"
 #include "obsgain/bounds.hpp"
 #include "obsgain/design.hpp"
 #include "obsgain/model_file.hpp"

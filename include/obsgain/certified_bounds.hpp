@@ -8,6 +8,7 @@
 #include "obsgain/dual.hpp"
 #include "obsgain/interval.hpp"
 
+#include <functional>
 #include <optional>
 #include <vector>
 
@@ -51,11 +52,22 @@ class IntervalDynamics {
   virtual double inertia_floor() const { return 0.0; }
 };
 
+// Where a running search stands: told about four times a second once a bound has run for a second.
+struct SearchProgress {
+  const char* bound = "";     // "M0", "B", "L_joint", "C_q"
+  int boxes = 0;
+  double lower = 0.0, upper = 0.0;  // the bracket so far (upper: the largest open box's bound)
+  double relative_gap = 0.0, target_gap = 0.0;
+  double seconds = 0.0;
+  double seconds_left = -1.0;  // until this bound's share of the budget ends; -1: no budget (until the gap)
+};
+
 struct CertifiedOptions {
   double relative_gap = 1e-6;  // stop a bound when upper - lower <= relative_gap * upper
   double budget_seconds = 120;  // wall time for the three bounds together; 0 = until the gap is reached
   int max_boxes = 2000000;      // per bound; reaching it leaves a wider (still valid) bracket
   int threads = 0;              // 0: all cores
+  std::function<void(const SearchProgress&)> progress;  // optional; called from a worker, under the search's lock
 };
 
 struct CertifiedBounds {

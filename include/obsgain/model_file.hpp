@@ -7,16 +7,15 @@
 
 #include "obsgain/model.hpp"
 
-#include <nlohmann/json.hpp>
-
 #include <string>
+#include <vector>
 
 namespace obsgain {
 
 // `armature`, when given, overrides the file's (one value per joint).
 Model load_model_file(const std::string& path, const std::vector<double>& armature = {});
 
-// The same from parsed JSON; `source` names the file in error messages.
-Model model_from_json(const nlohmann::json& description, const std::string& source);
+// The same from the file's text; `source` names the file in error messages.
+Model model_from_json_text(const std::string& text, const std::string& source);
 
 }  // namespace obsgain

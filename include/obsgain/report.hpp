@@ -5,24 +5,16 @@
 #include "obsgain/montecarlo.hpp"
 #include "obsgain/verification.hpp"
 
-#include <nlohmann/json.hpp>
-
 #include <ostream>
 #include <string>
 
 namespace obsgain {
 
-nlohmann::json to_json(const Eigen::MatrixXd& matrix);  // rows of numbers
-nlohmann::json to_json(const Eigen::VectorXd& vector);
-nlohmann::json to_json(const BoundReport& bounds);
-nlohmann::json certified_json(const BoundReport& bounds);  // {M0, B, L_joint}: {lower, upper, argmax_q, boxes, seconds}
-nlohmann::json to_json(const CertificateSummary& summary);
-nlohmann::json to_json(const Design& design);
-nlohmann::json to_json(const DeploymentCertificate& deployment, const std::vector<TradeoffPoint>& tradeoff,
-                       DesignObjective objective);
-// The deployment section of the design table (rate_proven: the design's own certificate is a proof).
-std::string format_deployment(const DeploymentCertificate& deployment, const std::vector<TradeoffPoint>& tradeoff,
-                              bool rate_proven);
+// The JSON of each result (indent 2): the one serialisation tools and the next command read. Built in one
+// place (src/json.hpp, report.cpp) with nlohmann_json, which stays a private dependency of the library.
+std::string to_json_text(const Design& design);
+std::string to_json_text(const MonteCarloReport& report);
+std::string to_json_text(const VerificationReport& report);
 
 // "(1, 2.5)": vectors in the human reports.
 std::string format_vector(const Eigen::VectorXd& v);
@@ -43,12 +35,10 @@ std::string format_report(const Design& design);
 // The design's warnings, one "warning: ..." line each (the apps print them on stderr).
 std::string format_warnings(const Design& design);
 
-nlohmann::json to_json(const MonteCarloReport& report);
 std::string format_report(const MonteCarloReport& report);
 void write_trials_csv(const MonteCarloReport& report, std::ostream& out);          // one row per trial
 void write_trajectory_csv(const std::vector<TrajectorySample>& samples, std::ostream& out);
 
-nlohmann::json to_json(const VerificationReport& report);
 
 struct WrittenReport {
   std::string html, json;   // paths
@@ -66,6 +56,7 @@ struct SavedDesign {
   Eigen::VectorXd velocity_bounds;
   ObserverCertificate certificate;
 };
-SavedDesign saved_design_from_json(const nlohmann::json& design_json);
+// From design-gains' JSON text; InputError when it is not JSON or not a certified design.
+SavedDesign saved_design_from_json_text(const std::string& text);
 
 }  // namespace obsgain
