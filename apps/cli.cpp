@@ -298,7 +298,13 @@ ValidationTarget load_validation_target(const DesignArguments& design, const std
     const DesignOptions options = to_design_options(design);
     Model model = load_robot(to_robot_source(design));
     const Design d = design_gains(model, options);
-    return {std::move(model), d.velocity_bounds, observer_certificate(d)};
+    ObserverCertificate certificate = observer_certificate(d);  // refuses a design with no rate: one error line
+    close_progress_line();
+    std::cerr << format_warnings(d);
+    // Validated all the same (the envelope it has is still a statement to test), but never silently.
+    if (const std::string unmet = unmet_request(d, options); !unmet.empty())
+      std::cerr << "warning: the design does not meet the request: " << unmet << "\n";
+    return {std::move(model), d.velocity_bounds, std::move(certificate)};
   }
   std::error_code error;
   if (!std::filesystem::is_regular_file(design_file, error))

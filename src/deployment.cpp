@@ -192,34 +192,51 @@ Design deployed_design(const Model& model, const BoundReport& bounds, const Desi
 
   Design chosen = base;
   const double theta_min = base.selected().theta;
+  // The trade-off the user chooses along: the ultimate errors from the smallest certifying θ up, at the rate
+  // design's α (the velocity-error search below may move α, and then sweeps again).
+  const auto sweep = [&](double alpha) {
+    std::vector<TradeoffPoint> points;
+    for (int j = 0; j <= 8; ++j) {
+      const Design d = evaluate(alpha, theta_min * std::pow(20.0, j / 8.0));
+      if (admissible(d)) points.push_back(tradeoff_point(d, model_gain, d_norm));
+    }
+    return points;
+  };
+  std::vector<TradeoffPoint> tradeoff = sweep(base.alpha);
   if (options.objective == DesignObjective::velocity_error && base.selected().certified) {
     // A log grid in θ from the rate design's θ up (and in α around its α with --optimize-shape), then golden
-    // section in log θ around the best point. The ultimate error is not convex in general: the grid finds the
-    // basin, the section its floor.
+    // section in log θ around the best point. The ultimate error is not convex in general, and slightly rough
+    // (P minimises k numerically at every θ): the grid finds the basin, the section its floor, and the answer is
+    // the best point evaluated anywhere, the sweep's included.
+    double best_error = tradeoff_point(base, model_gain, d_norm).velocity_norm;
+    double best_alpha = base.alpha, best_theta = theta_min;
+    const auto consider = [&](double alpha, double theta) {
+      const Design d = evaluate(alpha, theta);
+      const double error = admissible(d) ? tradeoff_point(d, model_gain, d_norm).velocity_norm
+                                         : std::numeric_limits<double>::infinity();
+      if (error < best_error) {
+        best_error = error;
+        best_alpha = alpha;
+        best_theta = theta;
+      }
+      return error;
+    };
     std::vector<double> alphas{base.alpha};
     if (options.optimize_shape)
       for (int k = -4; k <= 4; ++k)
         if (k != 0) alphas.push_back(base.alpha * std::pow(2.0, 0.5 * k));
-    double best_error = tradeoff_point(base, model_gain, d_norm).velocity_norm;
-    double best_alpha = base.alpha, best_theta = theta_min;
     const double span = 30.0, grid = 24;
     for (const double alpha : alphas)
-      for (int j = 0; j <= grid; ++j) {
-        const Design d = evaluate(alpha, theta_min * std::pow(span, j / grid));
-        const double error = tradeoff_point(d, model_gain, d_norm).velocity_norm;
-        if (admissible(d) && error < best_error) {
-          best_error = error;
-          best_alpha = alpha;
-          best_theta = d.selected().theta;
-        }
-      }
-    const double step = std::pow(span, 1.0 / grid);
+      for (int j = 0; j <= grid; ++j) consider(alpha, theta_min * std::pow(span, j / grid));
+    const auto adopt = [&](const std::vector<TradeoffPoint>& points) {
+      for (const TradeoffPoint& p : points)
+        if (p.velocity_norm < best_error) best_error = p.velocity_norm, best_alpha = p.alpha, best_theta = p.theta;
+    };
+    adopt(tradeoff);
+    const double step = std::pow(span, 1.0 / grid), section_alpha = best_alpha;
     double lo = std::log(std::max(theta_min, best_theta / step)), hi = std::log(best_theta * step);
     const double ratio = (std::sqrt(5.0) - 1.0) / 2.0;
-    const auto error_at = [&](double log_theta) {
-      const Design d = evaluate(best_alpha, std::exp(log_theta));
-      return admissible(d) ? tradeoff_point(d, model_gain, d_norm).velocity_norm : std::numeric_limits<double>::infinity();
-    };
+    const auto error_at = [&](double log_theta) { return consider(section_alpha, std::exp(log_theta)); };
     double a = hi - ratio * (hi - lo), b = lo + ratio * (hi - lo);
     double fa = error_at(a), fb = error_at(b);
     for (int i = 0; i < 40 && hi - lo > 1e-6; ++i) {
@@ -231,11 +248,11 @@ Design deployed_design(const Model& model, const BoundReport& bounds, const Desi
         b = lo + ratio * (hi - lo), fb = error_at(b);
       }
     }
-    const Design refined = evaluate(best_alpha, std::exp(0.5 * (lo + hi)));
-    if (admissible(refined) && tradeoff_point(refined, model_gain, d_norm).velocity_norm <= best_error)
-      chosen = refined;
-    else
-      chosen = evaluate(best_alpha, best_theta);
+    if (best_alpha != base.alpha) {
+      tradeoff = sweep(best_alpha);
+      adopt(tradeoff);
+    }
+    chosen = evaluate(best_alpha, best_theta);
     // Report θ* for the target, as a rate design does, and the shape search that preceded.
     chosen.target_gamma = options.gamma;
     chosen.shape = base.shape;
@@ -244,11 +261,7 @@ Design deployed_design(const Model& model, const BoundReport& bounds, const Desi
   }
   chosen.objective = options.objective;
   chosen.deployment = deployment_certificate(chosen, deployment, sensitivity, true);
-  // The trade-off the user chooses along: the ultimate errors from the smallest certifying θ up.
-  for (int j = 0; j <= 8; ++j) {
-    const Design d = evaluate(chosen.alpha, theta_min * std::pow(20.0, j / 8.0));
-    if (admissible(d)) chosen.tradeoff.push_back(tradeoff_point(d, model_gain, d_norm));
-  }
+  chosen.tradeoff = tradeoff;
   const TradeoffPoint own = tradeoff_point(chosen, model_gain, d_norm);
   if (std::none_of(chosen.tradeoff.begin(), chosen.tradeoff.end(),
                    [&](const TradeoffPoint& p) { return std::abs(p.theta - own.theta) <= 1e-9 * own.theta; }))

@@ -32,7 +32,6 @@ Observer::Observer(const Model& model, const ObserverGains& gains)
       start_(n_),
       middle_(n_),
       end_(n_),
-      g_(n_),
       saturated_(n_),
       coriolis_(n_),
       k1q_(n_), k1v_(n_), k2q_(n_), k2v_(n_), k3q_(n_), k3v_(n_), k4q_(n_), k4v_(n_), q_stage_(n_), v_stage_(n_) {
@@ -60,6 +59,7 @@ bool Observer::reset(const Eigen::Ref<const Eigen::VectorXd>& q_measured, const 
   y_previous_ = q_measured;
   q_hat_ = q_estimate;
   v_hat_ = v_estimate;
+  last_instant_ = -1;
   return true;
 }
 
@@ -70,13 +70,16 @@ bool Observer::reset(const Eigen::Ref<const Eigen::VectorXd>& q_measured) noexce
 }
 
 void Observer::freeze(double fraction, Instant& instant) noexcept {
-  instant.y = y_previous_ + fraction * (y_current_ - y_previous_);
+  if (fraction == 1.0)
+    instant.y = y_current_;  // exactly: the next update starts from this instant
+  else
+    instant.y = y_previous_ + fraction * (y_current_ - y_previous_);
   // The true position lies inside the limits; clamping moves the model's point towards it, never away.
   instant.y_model = instant.y.cwiseMax(lower_).cwiseMin(upper_);
   model_.dynamics->mass_matrix(instant.y_model, instant.M);
   instant.llt.compute(instant.M);
-  model_.dynamics->gravity(instant.y_model, g_);
-  instant.bias = Hu_ - g_;
+  model_.dynamics->gravity(instant.y_model, instant.g);
+  instant.bias = Hu_ - instant.g;
 }
 
 void Observer::derivative(const Instant& instant, const Eigen::VectorXd& q, const Eigen::VectorXd& v,
@@ -101,10 +104,14 @@ Observer::Estimate Observer::update(const Eigen::Ref<const Eigen::VectorXd>& q_m
   u_ = u;
   Hu_.noalias() = model_.input_matrix * u_;
   const double h = dt / steps;
-  // The end of one sub-step is the start of the next: swap the roles, never the buffers.
-  Instant* start = &start_;
-  Instant* end = &end_;
-  freeze(0.0, *start);
+  // The end of one sub-step is the start of the next, and the last update's end this one's start: swap the
+  // roles, never the buffers.
+  Instant* start = &instant(last_instant_ < 0 ? 0 : last_instant_);
+  Instant* end = &instant(last_instant_ == 0 ? 1 : 0);
+  if (last_instant_ < 0)
+    freeze(0.0, *start);
+  else
+    start->bias = Hu_ - start->g;  // same measurement, new input
   for (int step = 0; step < steps; ++step) {
     const double s = static_cast<double>(step) / steps;
     freeze(s + 0.5 / steps, middle_);
@@ -124,6 +131,7 @@ Observer::Estimate Observer::update(const Eigen::Ref<const Eigen::VectorXd>& q_m
     std::swap(start, end);
   }
   y_previous_ = y_current_;
+  last_instant_ = start == &start_ ? 0 : 1;
   return {q_hat_, v_hat_, true};
 }
 

@@ -70,11 +70,12 @@ class Observer {
     Eigen::VectorXd y, y_model;  // measurement, and the same clamped into the joint limits
     Eigen::MatrixXd M;
     Eigen::LLT<Eigen::MatrixXd> llt;
-    Eigen::VectorXd bias;        // H u - g(y_model)
-    explicit Instant(int n) : y(n), y_model(n), M(n, n), llt(n), bias(n) {}
+    Eigen::VectorXd g, bias;     // g(y_model), and H u - g(y_model)
+    explicit Instant(int n) : y(n), y_model(n), M(n, n), llt(n), g(n), bias(n) {}
   };
 
   void freeze(double fraction, Instant& instant) noexcept;
+  Instant& instant(int index) noexcept { return index == 0 ? start_ : end_; }
   void derivative(const Instant& instant, const Eigen::VectorXd& q, const Eigen::VectorXd& v, Eigen::VectorXd& dq,
                   Eigen::VectorXd& dv) noexcept;
 
@@ -84,7 +85,9 @@ class Observer {
   Eigen::VectorXd lower_, upper_;  // joint limits (±∞ for continuous joints)
   Eigen::VectorXd q_hat_, v_hat_, y_previous_, y_current_, u_, Hu_;
   Instant start_, middle_, end_;
-  Eigen::VectorXd g_;
+  // Which of start_ (0) and end_ (1) holds the model at the last measurement (-1: none since reset): the next
+  // update starts there, so only the input's part of it is new.
+  int last_instant_ = -1;
   Eigen::VectorXd saturated_, coriolis_;
   Eigen::VectorXd k1q_, k1v_, k2q_, k2v_, k3q_, k3v_, k4q_, k4v_, q_stage_, v_stage_;
 };
