@@ -24,7 +24,7 @@ int main(int argc, char** argv) {
   app.add_option("--trajectory", trajectory_path, "write the time series of trial 0 to FILE")->type_name("FILE");
   return obsgain::run_app(app, argc, argv, [&] {
     obsgain::MonteCarloOptions options = obsgain::to_monte_carlo_options(arguments);
-    options.progress = isatty(STDERR_FILENO) != 0;
+    options.progress = isatty(STDERR_FILENO) != 0 && !design.quiet;
     const obsgain::ValidationTarget target = obsgain::load_validation_target(design, arguments.design_file);
     const obsgain::MonteCarloReport report =
         obsgain::run_monte_carlo(target.model, target.velocity_bounds, target.certificate, options);

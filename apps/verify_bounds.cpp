@@ -26,7 +26,7 @@ int main(int argc, char** argv) {
     options.design = obsgain::to_design_options(design);
     for (int i = 0; i < argc; ++i) options.command_line += (i ? " " : "") + std::string(argv[i]);
     options.monte_carlo = obsgain::to_monte_carlo_options(monte_carlo);
-    options.monte_carlo.progress = isatty(STDERR_FILENO) != 0;
+    options.monte_carlo.progress = isatty(STDERR_FILENO) != 0 && !design.quiet;
     const obsgain::Model model = obsgain::load_robot(obsgain::to_robot_source(design));
     const obsgain::VerificationReport report = obsgain::verify_design(model, options);
     if (options.design.progress && model.dof() > 2) options.design.progress("writing the report and its plots");

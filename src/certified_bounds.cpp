@@ -387,7 +387,10 @@ BoundBracket branch_and_bound(const SearchDomain& s, const std::function<BoxBoun
         p.boxes = bracket.boxes;
         p.lower = bracket.lower;
         p.upper = std::max({queue.empty() ? 0.0 : queue.top().upper, pruned_upper, in_flight.empty() ? 0.0 : *in_flight.rbegin()});
-        p.relative_gap = p.upper > 0.0 ? (p.upper - p.lower) / p.upper : 0.0;
+        // A box not yet shown bounded (M⁻¹ not proven finite on it) leaves the upper end infinite: gap 1.
+        p.relative_gap = std::isfinite(p.upper) && p.upper > 0.0 ? (p.upper - p.lower) / p.upper
+                         : std::isfinite(p.upper)                ? 0.0
+                                                                 : 1.0;
         p.target_gap = options.relative_gap;
         p.seconds = std::chrono::duration<double>(now - start).count();
         if (deadline != std::chrono::steady_clock::time_point::max())

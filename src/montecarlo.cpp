@@ -208,10 +208,16 @@ MonteCarloReport run_monte_carlo(const Model& model, const Eigen::VectorXd& V, c
   for (int t = 0; t < report.threads; ++t) pool.emplace_back(worker);
   if (options.progress) {
     while (done < options.trials) {
-      std::fprintf(stderr, "\rmonte-carlo: %d / %d trials", done.load(), options.trials);
+      const int finished = done.load();
+      const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      if (finished > 0)
+        std::fprintf(stderr, "\r\033[Kmonte-carlo: %d / %d trials, %.0f s, about %.0f s left", finished, options.trials,
+                     elapsed, elapsed / finished * (options.trials - finished));
+      else
+        std::fprintf(stderr, "\r\033[Kmonte-carlo: 0 / %d trials, %.0f s", options.trials, elapsed);
       std::this_thread::sleep_for(std::chrono::milliseconds(200));
     }
-    std::fprintf(stderr, "\rmonte-carlo: %d / %d trials\n", options.trials, options.trials);
+    std::fprintf(stderr, "\r\033[Kmonte-carlo: %d / %d trials\n", options.trials, options.trials);
   }
   for (auto& thread : pool) thread.join();
 

@@ -217,7 +217,10 @@ TEST(ArmBrackets, LongSearchesReportProgress) {
     EXPECT_GE(p.seconds, 1.0);
     EXPECT_LE(p.seconds_left, 1.2 + 0.5);
     EXPECT_LE(p.lower, p.upper);
-    EXPECT_NEAR(p.relative_gap, (p.upper - p.lower) / p.upper, 1e-12);
+    if (std::isfinite(p.upper))
+      EXPECT_NEAR(p.relative_gap, (p.upper - p.lower) / p.upper, 1e-12);
+    else
+      EXPECT_EQ(p.relative_gap, 1.0);  // a box whose bound is not finite yet (slow, sanitised builds see these)
     if (i > 0 && std::string(p.bound) == reports[i - 1].bound) {
       EXPECT_GT(p.boxes, reports[i - 1].boxes);
       EXPECT_LE(p.upper, reports[i - 1].upper);

@@ -84,8 +84,8 @@ INSTANTIATE_TEST_SUITE_P(ShippedArms, ChainAgainstKdl,
                            return file.substr(0, file.find('.'));
                          });
 
-// Random boxes, random points inside: the DualInterval evaluation encloses M, N and their derivatives
-// (central differences) at every point, for n = 2, 3, 6, 7.
+// Random boxes, random points inside: the DualInterval evaluation encloses M, N, g and the derivatives of M
+// and g (central differences) at every point, for n = 2, 3, 6, 7.
 TEST(ChainIntervals, EncloseValuesAndDerivativesAtRandomPointsOfRandomBoxes) {
   std::mt19937_64 rng(3);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
@@ -107,6 +107,7 @@ TEST(ChainIntervals, EncloseValuesAndDerivativesAtRandomPointsOfRandomBoxes) {
       hi[0] = lo[0];
       const obsgain::MatrixEnclosure M = dynamics.mass_matrix(box);
       const std::vector<obsgain::MatrixEnclosure> N = dynamics.coriolis_tensors(box);
+      const obsgain::MatrixEnclosure g = dynamics.gravity(box);
       for (int point = 0; point < 10; ++point) {
         Eigen::VectorXd q(n);
         for (int i = 0; i < n; ++i) q(i) = lo[i] + unit(rng) * (hi[i] - lo[i]);
@@ -122,6 +123,9 @@ TEST(ChainIntervals, EncloseValuesAndDerivativesAtRandomPointsOfRandomBoxes) {
             EXPECT_TRUE(inside(M.value(r, c), Mq(r, c), 0.0)) << file << " M(" << r << "," << c << ")";
             for (int i = 0; i < n; ++i) EXPECT_TRUE(inside(N[i].value(r, c), Nq[i](r, c), 1e-12 * (1 + Mq.norm()))) << file;
           }
+        Eigen::VectorXd gq(n);
+        model.dynamics->gravity(q, gq);
+        for (int r = 0; r < n; ++r) EXPECT_TRUE(inside(g.value(r, 0), gq(r), 0.0)) << file << " g(" << r << ")";
         // Derivatives by central differences (their error, O(h²), is the slack).
         const double h = 1e-6;
         for (int k = 0; k < m; ++k) {
@@ -136,6 +140,12 @@ TEST(ChainIntervals, EncloseValuesAndDerivativesAtRandomPointsOfRandomBoxes) {
           for (int r = 0; r < n; ++r)
             for (int c = 0; c < n; ++c)
               EXPECT_TRUE(inside(M.derivative[k](r, c), dM(r, c), 1e-6 * (1 + Mq.norm()))) << file << " dM/dq" << k + 2;
+          Eigen::VectorXd gp(n), gm(n);
+          model.dynamics->gravity(plus, gp);
+          model.dynamics->gravity(minus, gm);
+          for (int r = 0; r < n; ++r)
+            EXPECT_TRUE(inside(g.derivative[k](r, 0), (gp(r) - gm(r)) / (2 * h), 1e-6 * (1 + gq.norm())))
+                << file << " dg/dq" << k + 2;
         }
       }
     }
