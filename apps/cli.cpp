@@ -94,6 +94,9 @@ void add_design_options(CLI::App& app, DesignArguments& a) {
   app.add_option("--acceleration-bounds", a.acceleration_bounds,
                  "deployment: |q''_i| <= A_i along the observed motion, one for all joints or A1,...,An [rad/s^2]")
       ->type_name("RAD_S2[,...]");
+  app.add_option("--latency", a.latency,
+                 "deployment: the encoder sample used at an update was read this long before it (default 0)")
+      ->type_name("SECONDS");
   app.add_option("--velocity-error-tolerance", a.velocity_error_tolerance,
                  "deployment: the largest certified ultimate velocity error accepted [rad/s] (default: the smallest "
                  "velocity bound); sets max_sample_period")
@@ -171,7 +174,7 @@ DesignOptions to_design_options(const DesignArguments& a) {
   }
   o.objective = a.objective == "velocity-error" ? DesignObjective::velocity_error : DesignObjective::rate;
   const bool deployment = !a.sample_period.empty() || !a.encoder_counts.empty() || !a.acceleration_bounds.empty() ||
-                          !a.velocity_error_tolerance.empty();
+                          !a.velocity_error_tolerance.empty() || !a.latency.empty();
   if (deployment) {
     if (a.sample_period.empty() || a.encoder_counts.empty() || a.acceleration_bounds.empty())
       throw InputError("a deployment needs all three of --sample-period, --encoder-counts and --acceleration-bounds");
@@ -179,6 +182,7 @@ DesignOptions to_design_options(const DesignArguments& a) {
     d.sample_period = parse_number("sample-period", a.sample_period);
     d.encoder_resolution = encoder_resolution_from_counts(parse_number_list("encoder-counts", a.encoder_counts));
     d.acceleration_bounds = parse_number_list("acceleration-bounds", a.acceleration_bounds);
+    if (!a.latency.empty()) d.latency = parse_number("latency", a.latency);
     if (!a.velocity_error_tolerance.empty())
       d.velocity_error_tolerance = parse_number("velocity-error-tolerance", a.velocity_error_tolerance);
     // C_q's branch and bound gets a tenth of the bound budget, within [1, 60] s, and stops at a 5 % gap: C_q

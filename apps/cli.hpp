@@ -17,7 +17,7 @@ struct DesignArguments {
   std::string robot = "pendubot";
   std::string base_link, tip_link, actuated, armature, joint_limits;
   std::string vmax, gamma, theta, alpha, beta, L, rate_margin, bound_budget;
-  std::string sample_period, encoder_counts, acceleration_bounds, velocity_error_tolerance;
+  std::string sample_period, encoder_counts, acceleration_bounds, velocity_error_tolerance, latency;
   std::string objective = "rate";
   std::string lipschitz = "joint";
   std::string certificate = "tight";

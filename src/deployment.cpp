@@ -51,16 +51,20 @@ void validate_deployment_options(const DeploymentOptions& o, int dof) {
   };
   check("encoder-counts", o.encoder_resolution, "resolution of joint ", 2.0 * std::numbers::pi);
   check("acceleration-bounds", o.acceleration_bounds, "A", 1e9);
+  if (!std::isfinite(o.latency) || o.latency < 0.0 || o.latency > 1.0)
+    throw InputError(fmt::format("--latency = {} must lie in [0, 1] seconds", o.latency));
   if (!std::isfinite(o.velocity_error_tolerance) || o.velocity_error_tolerance < 0.0)
     throw InputError(fmt::format("--velocity-error-tolerance = {} must be >= 0 (0: the smallest velocity bound)",
                                  o.velocity_error_tolerance));
 }
 
-Eigen::VectorXd measurement_error_bound(const DeploymentOptions& o, double T) {
+Eigen::VectorXd measurement_error_bound(const DeploymentOptions& o, const Eigen::VectorXd& V, double T) {
   const UpwardRounding upward;
   Eigen::VectorXd d(o.encoder_resolution.size());
   for (Eigen::Index i = 0; i < d.size(); ++i)
-    d(i) = (Interval(o.encoder_resolution(i)) / 2.0 + Interval(o.acceleration_bounds(i)) * square(Interval(T)) / 8.0).upper();
+    d(i) = (Interval(o.encoder_resolution(i)) / 2.0 + Interval(o.acceleration_bounds(i)) * square(Interval(T)) / 8.0 +
+            Interval(V(i)) * Interval(o.latency))
+               .upper();
   return d;
 }
 
@@ -90,6 +94,7 @@ DeploymentCertificate deployment_certificate(const Design& design, const Deploym
   const CertificateSummary& s = design.selected();
   DeploymentCertificate c;
   c.sample_period = options.sample_period;
+  c.latency = options.latency;
   c.encoder_resolution = options.encoder_resolution;
   c.acceleration_bounds = options.acceleration_bounds;
   c.position_sensitivity = sensitivity;
@@ -102,10 +107,10 @@ DeploymentCertificate deployment_certificate(const Design& design, const Deploym
   c.gamma = s.envelope_gamma;
   c.k = s.k;
   const auto velocity_norm_at = [&](double T) {
-    return sampled_error_bounds(s.P, c.gamma, s.k1, s.k2, c.model_gain, norm_upper(measurement_error_bound(options, T)))
+    return sampled_error_bounds(s.P, c.gamma, s.k1, s.k2, c.model_gain, norm_upper(measurement_error_bound(options, design.velocity_bounds, T)))
         .velocity_norm;
   };
-  c.measurement_error = measurement_error_bound(options, c.sample_period);
+  c.measurement_error = measurement_error_bound(options, design.velocity_bounds, c.sample_period);
   c.bounds = sampled_error_bounds(s.P, c.gamma, s.k1, s.k2, c.model_gain, norm_upper(c.measurement_error));
   const auto n = design.dof;
   // The ellipsoid W <= R is round across joints, so a joint's bound is the norm's.
@@ -182,7 +187,7 @@ Design deployed_design(const Model& model, const BoundReport& bounds, const Desi
     const UpwardRounding upward;
     model_gain = (Interval(bounds.M0.value) * Interval(sensitivity.upper)).upper();
   }
-  d_norm = norm_upper(measurement_error_bound(deployment, deployment.sample_period));
+  d_norm = norm_upper(measurement_error_bound(deployment, bounds.velocity_bounds, deployment.sample_period));
   const auto evaluate = [&](double alpha, double theta) {
     return design_from_bounds(model, bounds, at_gain(options, base.beta, alpha, theta));
   };

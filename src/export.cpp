@@ -72,6 +72,8 @@ std::string observer_header(const Design& d, const std::string& ns) {
                      list(d.velocity_bounds));
   if (const auto& dep = d.deployment) {
     out << fmt::format("inline constexpr double sample_period = {};  // T [s]\n", exact(dep->sample_period));
+    out << fmt::format("inline constexpr double latency = {};  // [s], the age of a sample when it is used\n",
+                       exact(dep->latency));
     out << fmt::format("inline constexpr int substeps = {};  // RK4 sub-steps per sample\n", dep->substeps);
     out << fmt::format("inline constexpr std::array<double, {}> encoder_resolution{{{}}};  // [rad per count]\n", d.dof,
                        list(dep->encoder_resolution));
@@ -108,6 +110,7 @@ std::string ros2_parameters(const Design& d, const std::string& node) {
   array("velocity_bounds", d.velocity_bounds);
   if (const auto& dep = d.deployment) {
     scalar("sample_period", dep->sample_period);
+    scalar("latency", dep->latency);
     out << fmt::format("    substeps: {}\n", dep->substeps);
     array("encoder_resolution", dep->encoder_resolution);
     array("acceleration_bounds", dep->acceleration_bounds);

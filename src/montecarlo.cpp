@@ -74,9 +74,9 @@ ObserverCertificate observer_certificate(const Design& design) {
                      "): there is no envelope to validate");
   ObserverCertificate c{s.k1, s.k2, s.envelope_gamma, s.k, s.P, std::nullopt};
   if (const auto& d = design.deployment)
-    c.sampled = SampledCertificate{d->sample_period,        d->encoder_resolution,   d->acceleration_bounds,
-                                   design.L_used,           d->bounds.level,         d->bounds.offset,
-                                   d->bounds.position_norm, d->bounds.velocity_norm};
+    c.sampled = SampledCertificate{d->sample_period,         d->latency,              d->encoder_resolution,
+                                   d->acceleration_bounds,   design.L_used,           d->bounds.level,
+                                   d->bounds.offset,         d->bounds.position_norm, d->bounds.velocity_norm};
   return c;
 }
 
@@ -165,6 +165,9 @@ MonteCarloReport run_monte_carlo(const Model& model, const Eigen::VectorXd& V, c
   if (!(certificate.gamma > 0.0) || !(certificate.k >= 1.0))
     throw InputError("the certificate to validate needs gamma > 0 and k >= 1");
   validate_velocity_bounds(model, V);
+  if (certificate.sampled && certificate.sampled->latency > certificate.sampled->sample_period)
+    throw InputError(fmt::format("latency = {} s is longer than a sample period ({} s): not simulated",
+                                 certificate.sampled->latency, certificate.sampled->sample_period));
   if (certificate.sampled && options.simulation.horizon / certificate.sampled->sample_period > 1e7)
     throw InputError(fmt::format("horizon = {} s is more than 1e7 samples of {} s", options.simulation.horizon,
                                  certificate.sampled->sample_period));

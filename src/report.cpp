@@ -110,6 +110,7 @@ nlohmann::json to_json(const DeploymentCertificate& c, const std::vector<Tradeof
                      {"ultimate_position_error_norm", p.position_norm}, {"ultimate_velocity_error_norm", p.velocity_norm}});
   nlohmann::json j = {
       {"sample_period", c.sample_period},
+      {"latency", c.latency},
       {"encoder_resolution", to_json(c.encoder_resolution)},
       {"acceleration_bounds", to_json(c.acceleration_bounds)},
       {"measurement_error", to_json(c.measurement_error)},
@@ -191,7 +192,9 @@ std::string format_deployment(const DeploymentCertificate& c, const std::vector<
   const SampledErrorBounds& b = c.bounds;
   out << fmt::format("Deployment: sampled every T = {:g} s, encoders of {} rad, |q''_i| <= {}\n", c.sample_period,
                      format_vector(c.encoder_resolution), format_vector(c.acceleration_bounds));
-  out << fmt::format("  measurement error |y_i - q_i| <= d_i = delta_i/2 + A_i T^2/8 = {}\n", format_vector(c.measurement_error));
+  out << fmt::format("  measurement error |y_i - q_i| <= d_i = delta_i/2 + A_i T^2/8{} = {}\n",
+                     c.latency > 0.0 ? fmt::format(" + V_i {:g} s (latency)", c.latency) : std::string(),
+                     format_vector(c.measurement_error));
   out << fmt::format("  C_q = sup ||d/dq (M a + A + g)||  [{:.6g}, {:.6g}] ({} boxes, {:.2f} s); M0 C_q = {:.6g}\n",
                      c.position_sensitivity.lower, c.position_sensitivity.upper, c.position_sensitivity.boxes,
                      c.position_sensitivity.seconds, c.model_gain);
@@ -314,6 +317,7 @@ nlohmann::json to_json(const MonteCarloReport& r) {
     const SampledCertificate& d = *c.sampled;
     j["numerical_floor"] = "sampled: the plant is integrated alone and the Observer class runs as deployed";
     j["sampled"] = {{"sample_period", d.sample_period},
+                    {"latency", d.latency},
                     {"encoder_resolution", to_json(d.encoder_resolution)},
                     {"acceleration_bounds", to_json(d.acceleration_bounds)},
                     {"offset", d.offset},
@@ -339,10 +343,11 @@ std::string format_report(const MonteCarloReport& r) {
   out << fmt::format("  fitted decay rate min {:.4g} / median {:.4g} / max {:.4g} 1/s against certified {:.4g}\n",
                      r.decay_rate.min, r.decay_rate.median, r.decay_rate.max, c.gamma);
   if (c.sampled) {
-    out << fmt::format("  sampled every {:g} s on encoders of {} rad (the Observer class as deployed); envelope offset "
-                       "{:.4g}, Lyapunov level offset {:.4g}\n",
-                       c.sampled->sample_period, format_vector(c.sampled->encoder_resolution), c.sampled->offset,
-                       c.sampled->level);
+    out << fmt::format("  sampled every {:g} s on encoders of {} rad{} (the Observer class as deployed); envelope "
+                       "offset {:.4g}, Lyapunov level offset {:.4g}\n",
+                       c.sampled->sample_period, format_vector(c.sampled->encoder_resolution),
+                       c.sampled->latency > 0.0 ? fmt::format(", read {:g} s before use", c.sampled->latency) : std::string(),
+                       c.sampled->offset, c.sampled->level);
     out << fmt::format("  over the last fifth of the horizon ||v^ - v|| reached {:.4g} rad/s (certified ultimate bound "
                        "{:.4g}); largest |q''_i| / A_i {:.3g}\n",
                        r.worst_final_velocity_error, c.sampled->velocity_norm, r.max_acceleration_ratio);
@@ -438,6 +443,7 @@ SavedDesign saved_design_from_json(const nlohmann::json& j) {
       };
       SampledCertificate c;
       c.sample_period = dep.at("sample_period").get<double>();
+      c.latency = dep.value("latency", 0.0);
       c.encoder_resolution = vector("encoder_resolution");
       c.acceleration_bounds = vector("acceleration_bounds");
       c.L = j.at("bounds").at("L_used").get<double>();
@@ -449,6 +455,7 @@ SavedDesign saved_design_from_json(const nlohmann::json& j) {
         if (!(x > 0.0) || !std::isfinite(x)) throw InputError("deployment: L_used, level and offset must be positive");
       DeploymentOptions ranges;  // the ranges design-gains accepts
       ranges.sample_period = c.sample_period;
+      ranges.latency = c.latency;
       ranges.encoder_resolution = c.encoder_resolution;
       ranges.acceleration_bounds = c.acceleration_bounds;
       try {

@@ -348,16 +348,25 @@ TrialResult sampled_trial(const Model& model, const ObserverCertificate& c, cons
     x.assign(q.data(), q.data() + n);
     x.insert(x.end(), v.data(), v.data() + n);
     bool ok = inside(q, v);
-    odeint::integrate_adaptive(
-        odeint::make_controlled(options.atol, options.rtol, odeint::runge_kutta_dopri5<State>()), std::ref(plant), x, t,
-        t + T, T / 4.0, [&](const State& state, double) {
-          ok = inside(Eigen::Map<const Eigen::VectorXd>(state.data(), n), Eigen::Map<const Eigen::VectorXd>(state.data() + n, n)) && ok;
-          ++result.steps;
-        });
+    const auto integrate = [&](double from, double until) {
+      if (until <= from) return;
+      odeint::integrate_adaptive(
+          odeint::make_controlled(options.atol, options.rtol, odeint::runge_kutta_dopri5<State>()), std::ref(plant), x,
+          from, until, T / 4.0, [&](const State& state, double) {
+            ok = inside(Eigen::Map<const Eigen::VectorXd>(state.data(), n),
+                        Eigen::Map<const Eigen::VectorXd>(state.data() + n, n)) && ok;
+            ++result.steps;
+          });
+    };
+    // The encoder is read latency seconds before the update that uses it.
+    const double read_at = t + T - sampled.latency;
+    integrate(t, read_at);
+    const Eigen::VectorXd measured = Eigen::Map<const Eigen::VectorXd>(x.data(), n);
+    integrate(read_at, t + T);
     if (!ok) return result;
     q = Eigen::Map<const Eigen::VectorXd>(x.data(), n);
     v = Eigen::Map<const Eigen::VectorXd>(x.data() + n, n);
-    observer.update(quantised(q), u, T);
+    observer.update(quantised(measured), u, T);
   }
   const double denominator = count * stt - st * st;
   // A trial whose error starts near the floor has no decay to fit.

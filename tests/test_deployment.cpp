@@ -55,10 +55,13 @@ DesignOptions deployed(double T, double counts, DesignObjective objective = Desi
   return o;
 }
 
-TEST(Deployment, MeasurementErrorIsHalfACountPlusTheInterpolationError) {
+TEST(Deployment, MeasurementErrorIsHalfACountPlusTheInterpolationErrorPlusTheLag) {
   const DeploymentOptions o = pendubot_deployment(1e-3, 4096);
-  const Eigen::VectorXd d = measurement_error_bound(o, 1e-3);
-  EXPECT_NEAR(d(0), std::numbers::pi / 4096 + 200.0 * 1e-6 / 8.0, 1e-15);
+  const Eigen::Vector2d V(10.0, 10.0);
+  EXPECT_NEAR(measurement_error_bound(o, V, 1e-3)(0), std::numbers::pi / 4096 + 200.0 * 1e-6 / 8.0, 1e-15);
+  DeploymentOptions late = o;
+  late.latency = 2e-4;  // the sample is 0.2 ms old when used: it may lag q(t) by V τ more
+  EXPECT_NEAR(measurement_error_bound(late, V, 1e-3)(1), std::numbers::pi / 4096 + 200.0 * 1e-6 / 8.0 + 10.0 * 2e-4, 1e-15);
 }
 
 // An independent estimate of C_q: central differences of h(q) = M(q) a + A(q, v) + g(q) on a grid, every
@@ -154,6 +157,28 @@ TEST(Deployment, VelocityErrorObjectiveBeatsTheRateDesignAndStillCertifiesTheRat
   EXPECT_GE(best.selected().envelope_gamma, 1.27);
   EXPECT_LT(best.deployment->bounds.velocity_norm, 0.2 * rate.deployment->bounds.velocity_norm);
   for (const TradeoffPoint& p : best.tradeoff) EXPECT_GE(p.velocity_norm, best.deployment->bounds.velocity_norm * (1 - 1e-9));
+}
+
+// A sample read τ before it is used lags q(t) by up to V τ more: the bound grows with ||d|| exactly, and the
+// class fed late samples (τ = 0.5 ms at 1 kHz) stays inside it.
+TEST(Deployment, LatencyEntersAsVTauAndTheLateObserverStillHolds) {
+  const Model model = pendubot();
+  DesignOptions o = deployed(1e-3, 4096);
+  o.gamma.reset();
+  o.theta = 138.0;
+  const Design on_time = design_gains(model, o);
+  o.deployment->latency = 5e-4;
+  const Design late = design_gains(model, o);
+  const double d0 = std::numbers::pi / 4096 + 200.0 * 1e-6 / 8.0;
+  EXPECT_NEAR(late.deployment->bounds.velocity_norm / on_time.deployment->bounds.velocity_norm, (d0 + 10.0 * 5e-4) / d0,
+              1e-3);
+  MonteCarloOptions mc;
+  mc.trials = 12;
+  mc.simulation.horizon = 0.3;
+  const MonteCarloReport report = run_monte_carlo(model, late.velocity_bounds, observer_certificate(late), mc);
+  EXPECT_EQ(report.envelope_violations + report.lyapunov_violations, 0);
+  EXPECT_GT(report.passed, 8);
+  EXPECT_LE(report.worst_final_velocity_error, late.deployment->bounds.velocity_norm);
 }
 
 TEST(Deployment, MonteCarloWithTheDeployedObserverHoldsAndCatchesATooSmallCertificate) {

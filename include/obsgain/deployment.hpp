@@ -4,7 +4,7 @@
 // two samples, the model evaluated there (clamped to the joint limits). Under the velocity box |v_i| <= V_i and
 // an acceleration box |q''_i| <= A_i, that measurement differs from q(t) by at most
 //   d_i = δ_i / 2 + A_i T² / 8          (quantisation, plus the interpolation error of a C² signal),
-// which enters the error equation as a bounded disturbance w = (k1 η, k2 η + ψ), |η_i| <= d_i,
+// (plus V_i τ when the samples arrive τ late), which enters the error equation as a bounded disturbance w = (k1 η, k2 η + ψ), |η_i| <= d_i,
 // ||ψ|| <= M0 C_q ||d|| (the model evaluated at the measured position). The design's quadratic certificate
 // V = eᵀ(P ⊗ I)e then gives, with W = sqrt(V),
 //   W(t) <= e^{-γt} W(0) + R,   R = sqrt(max wᵀ(P ⊗ I)w) / γ,
@@ -26,6 +26,7 @@ struct DeploymentOptions {
   double sample_period = 0.0;            // T [s]
   Eigen::VectorXd encoder_resolution;    // δ_i, one encoder count in joint units [rad or m]
   Eigen::VectorXd acceleration_bounds;   // A_i: |q''_i(t)| <= A_i along the observed motion [rad/s² or m/s²]
+  double latency = 0.0;                  // τ: the sample used at t_k was taken at t_k - τ (bus, filters) [s]
   // max_sample_period is the largest T whose certified ultimate velocity error norm stays within this;
   // 0: the smallest velocity bound (an estimate whose guaranteed error exceeds the velocities it estimates is
   // no estimate).
@@ -51,11 +52,12 @@ struct SampledErrorBounds {
 SampledErrorBounds sampled_error_bounds(const Eigen::Matrix2d& P, double gamma, double k1, double k2,
                                         double model_gain, double measurement_error_norm);
 
-// d_i = δ_i / 2 + A_i T² / 8.
-Eigen::VectorXd measurement_error_bound(const DeploymentOptions& options, double sample_period);
+// d_i = δ_i / 2 + A_i T² / 8 + V_i τ.
+Eigen::VectorXd measurement_error_bound(const DeploymentOptions& options, const Eigen::VectorXd& velocity_bounds,
+                                        double sample_period);
 
 struct DeploymentCertificate {
-  double sample_period = 0.0;
+  double sample_period = 0.0, latency = 0.0;
   Eigen::VectorXd encoder_resolution, acceleration_bounds;
   Eigen::VectorXd measurement_error;   // d_i
   BoundBracket position_sensitivity;   // C_q (certified_bounds.hpp); upper end used

@@ -18,6 +18,7 @@ namespace obsgain {
 // W(e) = sqrt(eᵀ(P ⊗ I)e) <= e^{-γt} W(e(0)) + level and ||e|| <= k e^{-γt} ||e(0)|| + offset.
 struct SampledCertificate {
   double sample_period = 0.0;
+  double latency = 0.0;            // the sample used at t_k is taken at t_k - latency (at most one period)
   Eigen::VectorXd encoder_resolution, acceleration_bounds;
   double L = 0.0;                  // the design's Lipschitz constant (the Observer class's sub-step length)
   double level = 0.0, offset = 0.0;
