@@ -43,15 +43,17 @@ int main(int argc, char** argv) {
         if (!(file << text)) throw obsgain::InputError("cannot write JSON to '" + json_path + "'");
       }
     }
+    // Gains that do not meet the request never reach a controller's files: the report says why, exit 1.
+    if (const std::string unmet = obsgain::unmet_request(design, options); !unmet.empty()) {
+      std::cerr << "design-gains: error: " << unmet << (header_path.empty() && ros2_path.empty() ? "" : " (nothing exported)")
+                << "\n";
+      return 1;
+    }
     for (const auto& [path, content] : {std::pair{header_path, obsgain::observer_header(design)},
                                          std::pair{ros2_path, obsgain::ros2_parameters(design)}}) {
       if (path.empty()) continue;
       std::ofstream file(path);
       if (!(file << content)) throw obsgain::InputError("cannot write '" + path + "'");
-    }
-    if (const std::string unmet = obsgain::unmet_request(design, options); !unmet.empty()) {
-      std::cerr << "design-gains: error: " << unmet << "\n";
-      return 1;
     }
     return 0;
   });

@@ -14,7 +14,7 @@ ObserverGains observer_gains(const Design& design) {
 int observer_substeps(double k1, double k2, double L, double dt) {
   const double steps = std::ceil(dt * 2.0 * (std::abs(k1) + std::sqrt(std::abs(k2)) + std::abs(L)));
   if (!(steps <= Observer::max_substeps)) return Observer::max_substeps + 1;  // NaN too: refused by update()
-  return std::max(1, static_cast<int>(steps));
+  return steps < 1.0 ? 1 : static_cast<int>(steps);  // (a negative dt is refused by update())
 }
 
 Observer::Observer(const Model& model, const ObserverGains& gains)
@@ -60,6 +60,7 @@ bool Observer::reset(const Eigen::Ref<const Eigen::VectorXd>& q_measured, const 
   q_hat_ = q_estimate;
   v_hat_ = v_estimate;
   last_instant_ = -1;
+  started_ = true;
   return true;
 }
 
@@ -97,7 +98,7 @@ void Observer::derivative(const Instant& instant, const Eigen::VectorXd& q, cons
 Observer::Estimate Observer::update(const Eigen::Ref<const Eigen::VectorXd>& q_measured,
                                     const Eigen::Ref<const Eigen::VectorXd>& u, double dt) noexcept {
   const int steps = substeps(dt);
-  if (q_measured.size() != n_ || u.size() != u_.size() || !q_measured.allFinite() || !u.allFinite() ||
+  if (!started_ || q_measured.size() != n_ || u.size() != u_.size() || !q_measured.allFinite() || !u.allFinite() ||
       !(dt > 0.0) || !std::isfinite(dt) || steps > max_substeps)
     return {q_hat_, v_hat_, false};
   y_current_ = q_measured;

@@ -437,7 +437,7 @@ SavedDesign saved_design_from_json(const nlohmann::json& j) {
       const nlohmann::json& dep = j.at("deployment");
       const auto vector = [&](const char* key) {
         const auto values = dep.at(key).get<std::vector<double>>();
-        if (values.size() != saved.velocity_bounds.size())
+        if (static_cast<Eigen::Index>(values.size()) != saved.velocity_bounds.size())
           throw InputError(std::string("deployment.") + key + " needs one value per joint");
         return Eigen::VectorXd(Eigen::Map<const Eigen::VectorXd>(values.data(), static_cast<Eigen::Index>(values.size())));
       };

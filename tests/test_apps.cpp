@@ -320,9 +320,12 @@ TEST(DeploymentApps, DesignGainsWritesTheDeploymentObjectAndExports) {
 TEST(DeploymentApps, APeriodAboveTheLimitOrATolerancePastReachIsRefused) {
   // The rate design (θ = 65.7) at 1 kHz: its certified ultimate velocity error (13 rad/s) exceeds the default
   // tolerance (min V = 10): exit 1, naming the limit.
-  const AppRun rate = run("design-gains", kDeployment);
+  const std::string header = ::testing::TempDir() + "/obsgain_refused_gains.hpp";
+  std::remove(header.c_str());
+  const AppRun rate = run("design-gains", kDeployment + " --export-header " + header);
   EXPECT_EQ(rate.exit_code, 1);
   EXPECT_NE(rate.err.find("exceeds the tolerance"), std::string::npos) << rate.err;
+  EXPECT_FALSE(std::filesystem::exists(header)) << "gains that fail the request are never exported";
   const AppRun slow = run("design-gains", "--robot pendubot --gamma 1.27 --sample-period 0.05 --encoder-counts 4096 "
                                           "--acceleration-bounds 200 --objective velocity-error");
   EXPECT_EQ(slow.exit_code, 1);

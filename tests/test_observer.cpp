@@ -181,6 +181,8 @@ TEST(Observer, IntegratesItsOwnEquationsAtFourthOrder) {
 TEST(Observer, RefusesBadInputAndKeepsItsState) {
   const Model model = pendubot();
   Observer observer(model, pendubot_gains());
+  EXPECT_FALSE(observer.update(Eigen::Vector2d(0.1, 0.2), kInput, 1e-3).accepted);  // no first sample yet
+  EXPECT_FALSE(observer.reset(Eigen::Vector2d(std::nan(""), 0.2)));
   ASSERT_TRUE(observer.reset(Eigen::Vector2d(0.1, 0.2)));
   const Eigen::Vector2d q = observer.position(), v = observer.velocity();
   const double nan = std::nan("");
@@ -188,6 +190,7 @@ TEST(Observer, RefusesBadInputAndKeepsItsState) {
   EXPECT_FALSE(observer.update(Eigen::Vector2d(0.1, 0.2), Eigen::Vector2d(nan, 0.0), 1e-3).accepted);
   EXPECT_FALSE(observer.update(Eigen::Vector2d(0.1, 0.2), kInput, 0.0).accepted);
   EXPECT_FALSE(observer.update(Eigen::Vector2d(0.1, 0.2), kInput, -1e-3).accepted);
+  EXPECT_FALSE(observer.update(Eigen::Vector2d(0.1, 0.2), kInput, -1e18).accepted);
   EXPECT_FALSE(observer.update(Eigen::Vector2d(0.1, 0.2), kInput, 1e9).accepted);  // beyond max_substeps
   EXPECT_FALSE(observer.update(Eigen::Vector3d(0.1, 0.2, 0.3), kInput, 1e-3).accepted);
   EXPECT_EQ(observer.position(), q);

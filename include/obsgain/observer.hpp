@@ -6,8 +6,9 @@
 // the implementation the deployment certificate covers (deployment.hpp, docs/theory.md).
 //
 // Real-time use: every buffer is sized at construction; update() and reset() allocate nothing, throw nothing,
-// and take a bounded time (at most max_substeps sub-steps). Invalid input (a size mismatch, NaN, dt <= 0 or a
-// dt needing more than max_substeps sub-steps) is refused: the state is left unchanged and `accepted` is false.
+// and take a bounded time (at most max_substeps sub-steps). Invalid input (an update before the first reset(),
+// a size mismatch, NaN, dt <= 0 or a dt needing more than max_substeps sub-steps) is refused: the state is left
+// unchanged and `accepted` is false.
 #pragma once
 
 #include "obsgain/design.hpp"
@@ -88,6 +89,7 @@ class Observer {
   // Which of start_ (0) and end_ (1) holds the model at the last measurement (-1: none since reset): the next
   // update starts there, so only the input's part of it is new.
   int last_instant_ = -1;
+  bool started_ = false;  // reset() has given the first sample
   Eigen::VectorXd saturated_, coriolis_;
   Eigen::VectorXd k1q_, k1v_, k2q_, k2v_, k3q_, k3v_, k4q_, k4v_, q_stage_, v_stage_;
 };
