@@ -14,10 +14,11 @@ ctest --test-dir build --output-on-failure -j"$jobs"
 cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=None -DCMAKE_CXX_FLAGS="-O1 -g1" -DOBSGAIN_SANITIZE=ON \
   -DOBSGAIN_BUILD_BENCHMARKS=OFF >/dev/null
 cmake --build build-asan -j"$jobs"
-# Also left to the plain pass: the 1000-trial Monte Carlo (the same code as the shorter ones, 45 s sanitised)
-# and the browser screenshot (Chromium's time, not obsgain's).
+# Also left to the plain pass: the 1000-trial Monte Carlo (the same code as the shorter ones, 45 s sanitised),
+# the browser screenshot (Chromium's time, not obsgain's), the three-joint bracket convergence (50 s sanitised;
+# the six-joint bracket test runs the same branch and bound under the sanitizers) and the dense vertex grid.
 ctest --test-dir build-asan --output-on-failure -j"$jobs" \
-  -E "installed_package_consumer|docs_commands_run_as_written|CertifiedDesignPasses1000Trials|report_screenshot_not_blank"
+  -E "installed_package_consumer|docs_commands_run_as_written|CertifiedDesignPasses1000Trials|report_screenshot_not_blank|ThreeJointArmBracketsContainTheGrid|VertexReductionAgainstDenseGrid"
 
 if [[ -x ../shared/contract-check ]]; then
   ../shared/contract-check build
