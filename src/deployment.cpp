@@ -17,6 +17,12 @@ using boost::numeric::square;
 
 namespace {
 
+// M0 C_q rounded up: ||ψ|| <= M0 C_q ||η||.
+double model_gain_upper(double M0, double C_q) {
+  const UpwardRounding upward;
+  return (Interval(M0) * Interval(C_q)).upper();
+}
+
 // ||d||₂ rounded up.
 double norm_upper(const Eigen::VectorXd& d) {
   const UpwardRounding upward;
@@ -100,34 +106,30 @@ DeploymentCertificate deployment_certificate(const Design& design, const Deploym
   c.position_sensitivity = sensitivity;
   c.sensitivity_proven = sensitivity_proven;
   c.M0 = design.bounds.M0.value;
-  {
-    const UpwardRounding upward;
-    c.model_gain = (Interval(c.M0) * Interval(sensitivity.upper)).upper();
-  }
+  c.model_gain = model_gain_upper(c.M0, sensitivity.upper);
   c.gamma = s.envelope_gamma;
   c.k = s.k;
-  const auto velocity_norm_at = [&](double T) {
-    return sampled_error_bounds(s.P, c.gamma, s.k1, s.k2, c.model_gain, norm_upper(measurement_error_bound(options, design.velocity_bounds, T)))
-        .velocity_norm;
+  const auto bounds_at = [&](double T) {
+    return sampled_error_bounds(s.P, c.gamma, s.k1, s.k2, c.model_gain,
+                                norm_upper(measurement_error_bound(options, design.velocity_bounds, T)));
   };
   c.measurement_error = measurement_error_bound(options, design.velocity_bounds, c.sample_period);
-  c.bounds = sampled_error_bounds(s.P, c.gamma, s.k1, s.k2, c.model_gain, norm_upper(c.measurement_error));
+  c.bounds = bounds_at(c.sample_period);
   const auto n = design.dof;
   // The ellipsoid W <= R is round across joints, so a joint's bound is the norm's.
   c.ultimate_position_error = Eigen::VectorXd::Constant(n, c.bounds.position_norm);
   c.ultimate_velocity_error = Eigen::VectorXd::Constant(n, c.bounds.velocity_norm);
   c.velocity_error_tolerance =
       options.velocity_error_tolerance > 0.0 ? options.velocity_error_tolerance : design.velocity_bounds.minCoeff();
-  // The ultimate velocity error grows with T (through A T² / 8): bisect for the largest T within tolerance.
-  if (s.certified && velocity_norm_at(0.0) <= c.velocity_error_tolerance) {
-    double good = 0.0, bad = std::max(c.sample_period, 1e-6);
-    while (velocity_norm_at(bad) <= c.velocity_error_tolerance && bad < 1e3) {
-      good = bad;
-      bad *= 2.0;
-    }
+  // The ultimate velocity error grows with T (through A T² / 8): bisect for the largest T within tolerance, up to
+  // the longest period accepted (1 s).
+  const auto within = [&](double T) { return bounds_at(T).velocity_norm <= c.velocity_error_tolerance; };
+  if (s.certified && within(0.0)) {
+    double good = 0.0, bad = 1.0;
+    if (within(bad)) good = bad;
     for (int i = 0; i < 100 && bad - good > 1e-12 * bad; ++i) {
       const double middle = 0.5 * (good + bad);
-      (velocity_norm_at(middle) <= c.velocity_error_tolerance ? good : bad) = middle;
+      (within(middle) ? good : bad) = middle;
     }
     c.max_sample_period = good;
   }
@@ -182,12 +184,8 @@ Design deployed_design(const Model& model, const BoundReport& bounds, const Desi
   rate_options.objective = DesignObjective::rate;
   // The rate design: the smallest θ (and with --optimize-shape the α) that certifies the target.
   const Design base = design_from_bounds(model, bounds, rate_options);
-  double model_gain = 0.0, d_norm = 0.0;
-  {
-    const UpwardRounding upward;
-    model_gain = (Interval(bounds.M0.value) * Interval(sensitivity.upper)).upper();
-  }
-  d_norm = norm_upper(measurement_error_bound(deployment, bounds.velocity_bounds, deployment.sample_period));
+  const double model_gain = model_gain_upper(bounds.M0.value, sensitivity.upper);
+  const double d_norm = norm_upper(measurement_error_bound(deployment, bounds.velocity_bounds, deployment.sample_period));
   const auto evaluate = [&](double alpha, double theta) {
     return design_from_bounds(model, bounds, at_gain(options, base.beta, alpha, theta));
   };
