@@ -1,7 +1,8 @@
 #include "cli.hpp"
 
-#include "obsgain/report.hpp"
-#include "obsgain/robots.hpp"
+#include "obsgain/parsers/robots.hpp"
+#include "obsgain/report/design_file.hpp"
+#include "obsgain/report/report.hpp"
 
 #include <fmt/format.h>
 
@@ -65,7 +66,7 @@ void add_design_options(CLI::App& app, DesignArguments& a) {
   app.add_option("--beta", a.beta, "observer shape beta (default 1)")
       ->type_name("NUMBER");
   app.add_flag("--optimize-shape", a.optimize_shape, "beta = 1 and the best alpha for the certificate");
-  app.add_option("--lipschitz", a.lipschitz, "Lipschitz constant: joint (design notes 4) or paper")
+  app.add_option("--lipschitz", a.lipschitz, "Lipschitz constant: joint (docs/theory.md) or paper")
       ->check(CLI::IsMember({"joint", "paper"}))
       ->capture_default_str()
       ->type_name("joint|paper");
@@ -138,12 +139,42 @@ void print_search_progress(const SearchProgress& p) {
 
 }  // namespace
 
-DesignOptions to_design_options(const DesignArguments& a) {
-  // An option given with an empty value ("--vmax ''") would otherwise read as not given at all.
+namespace {
+
+// Deployment options, when any of them is given (all three of T, encoders and accelerations are then needed).
+std::optional<DeploymentOptions> to_deployment_options(const DesignArguments& a) {
+  const bool deployment = !a.sample_period.empty() || !a.encoder_counts.empty() || !a.acceleration_bounds.empty() ||
+                          !a.velocity_error_tolerance.empty() || !a.latency.empty();
+  if (!deployment) {
+    if (a.objective == "velocity-error")
+      throw InputError("--objective velocity-error needs a deployment: --sample-period, --encoder-counts, --acceleration-bounds");
+    return std::nullopt;
+  }
+  if (a.sample_period.empty() || a.encoder_counts.empty() || a.acceleration_bounds.empty())
+    throw InputError("a deployment needs all three of --sample-period, --encoder-counts and --acceleration-bounds");
+  DeploymentOptions d;
+  d.sample_period = parse_number("sample-period", a.sample_period);
+  d.encoder_resolution = encoder_resolution_from_counts(parse_number_list("encoder-counts", a.encoder_counts));
+  d.acceleration_bounds = parse_number_list("acceleration-bounds", a.acceleration_bounds);
+  if (!a.latency.empty()) d.latency = parse_number("latency", a.latency);
+  if (!a.velocity_error_tolerance.empty())
+    d.velocity_error_tolerance = parse_number("velocity-error-tolerance", a.velocity_error_tolerance);
+  d.objective = a.objective == "velocity-error" ? DesignObjective::velocity_error : DesignObjective::rate;
+  return d;
+}
+
+// An option given with an empty value ("--vmax ''") would otherwise read as not given at all.
+void refuse_empty_values(const DesignArguments& a) {
   for (const CLI::Option* option : a.given)
     for (const std::string& value : option->results())
       if (option->get_type_size() != 0 && value.empty())
         throw InputError(fmt::format("{} = '' is empty: give a value or leave the option out", option->get_name()));
+}
+
+}  // namespace
+
+DesignRequest to_design_request(const DesignArguments& a, const Model& model) {
+  refuse_empty_values(a);
   DesignOptions o;
   if (!a.gamma.empty()) o.gamma = parse_number("gamma", a.gamma);
   if (!a.theta.empty()) o.theta = parse_number("theta", a.theta);
@@ -152,15 +183,12 @@ DesignOptions to_design_options(const DesignArguments& a) {
   if (!a.alpha.empty()) o.alpha = parse_number("alpha", a.alpha);
   if (!a.beta.empty()) o.beta = parse_number("beta", a.beta);
   o.optimize_shape = a.optimize_shape;
-  // Progress on stderr: one line per phase (robots of more than two joints); on a terminal also the running
-  // searches' boxes, bracket, gap and time left, rewritten in place.
-  const bool terminal = !a.quiet && isatty(STDERR_FILENO) != 0;
-  if (!a.quiet)
+  if (!a.quiet && model.dof() > 2)
     o.progress = [](const std::string& phase) {
       close_progress_line();
       std::cerr << phase << std::endl;
     };
-  if (terminal) o.certified_bounds.progress = print_search_progress;
+  if (!a.quiet && isatty(STDERR_FILENO) != 0) o.certified_bounds.progress = print_search_progress;
   o.lipschitz = a.lipschitz == "paper" ? LipschitzKind::paper : LipschitzKind::joint;
   o.certificate = a.certificate == "paper" ? CertificateKind::paper : CertificateKind::tight;
   o.bound_method = a.bounds == "numeric" ? BoundMethod::numeric : BoundMethod::certified;
@@ -168,34 +196,8 @@ DesignOptions to_design_options(const DesignArguments& a) {
   if (!a.rate_margin.empty()) o.rate_margin = parse_number("rate-margin", a.rate_margin);
   if (!a.bound_budget.empty()) o.certified_bounds.budget_seconds = parse_number("bound-budget", a.bound_budget);
   if (!a.vmax.empty()) o.velocity_bounds = parse_number_list("vmax", a.vmax);
-  for (Eigen::Index i = 0; i < o.velocity_bounds.size(); ++i) {
-    if (o.velocity_bounds(i) <= 0.0)
-      throw InputError(fmt::format("vmax: velocity bound V{} = {} must be positive", i + 1, o.velocity_bounds(i)));
-  }
-  o.objective = a.objective == "velocity-error" ? DesignObjective::velocity_error : DesignObjective::rate;
-  const bool deployment = !a.sample_period.empty() || !a.encoder_counts.empty() || !a.acceleration_bounds.empty() ||
-                          !a.velocity_error_tolerance.empty() || !a.latency.empty();
-  if (deployment) {
-    if (a.sample_period.empty() || a.encoder_counts.empty() || a.acceleration_bounds.empty())
-      throw InputError("a deployment needs all three of --sample-period, --encoder-counts and --acceleration-bounds");
-    DeploymentOptions d;
-    d.sample_period = parse_number("sample-period", a.sample_period);
-    d.encoder_resolution = encoder_resolution_from_counts(parse_number_list("encoder-counts", a.encoder_counts));
-    d.acceleration_bounds = parse_number_list("acceleration-bounds", a.acceleration_bounds);
-    if (!a.latency.empty()) d.latency = parse_number("latency", a.latency);
-    if (!a.velocity_error_tolerance.empty())
-      d.velocity_error_tolerance = parse_number("velocity-error-tolerance", a.velocity_error_tolerance);
-    // C_q's branch and bound gets a tenth of the bound budget, within [1, 60] s, and stops at a 5 % gap: C_q
-    // enters the ultimate bounds through M0 C_q + k2, so 5 % on it moves them by less than that, and its attained
-    // values (vertex choices of a and v) sit about 1.5 % below the supremum of the enclosure's relaxation anyway.
-    const double budget = o.certified_bounds.budget_seconds;
-    d.sensitivity.budget_seconds = budget > 0.0 ? std::clamp(0.1 * budget, 1.0, 60.0) : 60.0;
-    d.sensitivity.relative_gap = 5e-2;
-    d.sensitivity.progress = o.certified_bounds.progress;
-    o.deployment = d;
-  }
   validate_design_options(o);
-  return o;
+  return {o, to_deployment_options(a)};
 }
 
 RobotSource to_robot_source(const DesignArguments& a) {
@@ -221,14 +223,13 @@ RobotSource to_robot_source(const DesignArguments& a) {
   }
   if (!a.armature.empty()) {
     const Eigen::VectorXd armature = parse_number_list("armature", a.armature);
-    for (Eigen::Index i = 0; i < armature.size(); ++i) {
-      if (armature(i) < 0.0) throw InputError(fmt::format("armature: a{} = {} must be >= 0", i + 1, armature(i)));
-      source.armature.push_back(armature(i));
-    }
+    source.armature.assign(armature.data(), armature.data() + armature.size());
   }
+  // The loaders check the values (load_urdf: flags 0 or 1; armature >= 0); here only that a flag is a whole number.
   if (!a.actuated.empty()) {
     for (const double flag : parse_number_list("actuated", a.actuated)) {
-      if (flag != 0.0 && flag != 1.0) throw InputError(fmt::format("actuated: flag {} must be 0 or 1", flag));
+      if (flag != std::floor(flag) || std::abs(flag) > 1e9)
+        throw InputError(fmt::format("actuated: flag {} must be 0 or 1", flag));
       source.actuated.push_back(static_cast<int>(flag));
     }
   }
@@ -277,8 +278,16 @@ double parse_in(const std::string& name, const std::string& text, double lower, 
 
 }  // namespace
 
-MonteCarloOptions to_monte_carlo_options(const MonteCarloArguments& a) {
+MonteCarloOptions to_monte_carlo_options(const MonteCarloArguments& a, bool quiet) {
   MonteCarloOptions o;
+  if (!quiet && isatty(STDERR_FILENO) != 0)
+    o.progress = [](int done, int total, double seconds) {
+      std::cerr << (done > 0 ? fmt::format("\r\033[Kmonte-carlo: {} / {} trials, {:.0f} s, about {:.0f} s left", done,
+                                           total, seconds, seconds / done * (total - done))
+                             : fmt::format("\r\033[Kmonte-carlo: 0 / {} trials, {:.0f} s", total, seconds))
+                << std::flush;
+      progress_line_open = true;
+    };
   o.trials = parse_count("trials", a.trials, 1);
   const double seed = parse_number("seed", a.seed);
   if (seed < 0 || seed != std::floor(seed) || seed > 9e15) throw InputError(fmt::format("seed = {} must be a whole number >= 0", a.seed));
@@ -299,16 +308,16 @@ MonteCarloOptions to_monte_carlo_options(const MonteCarloArguments& a) {
 
 ValidationTarget load_validation_target(const DesignArguments& design, const std::string& design_file) {
   if (design_file.empty()) {
-    const DesignOptions options = to_design_options(design);
     Model model = load_robot(to_robot_source(design));
-    const Design d = design_gains(model, options);
+    const DesignRequest request = to_design_request(design, model);
+    const DeployedDesign d = design_observer(model, request.design, request.deployment);
     ObserverCertificate certificate = observer_certificate(d);  // refuses a design with no rate: one error line
     close_progress_line();
-    std::cerr << format_warnings(d);
+    std::cerr << format_warnings(d.design);
     // Validated all the same (the envelope it has is still a statement to test), but never silently.
-    if (const std::string unmet = unmet_request(d, options); !unmet.empty())
+    if (const std::string unmet = unmet_request(d, request.design); !unmet.empty())
       std::cerr << "warning: the design does not meet the request: " << unmet << "\n";
-    return {std::move(model), d.velocity_bounds, std::move(certificate)};
+    return {std::move(model), std::move(certificate)};
   }
   std::error_code error;
   if (!std::filesystem::is_regular_file(design_file, error))
@@ -331,8 +340,8 @@ ValidationTarget load_validation_target(const DesignArguments& design, const std
     throw InputError("design file '" + design_file + "' was made for another version of '" + saved.robot.robot +
                      "' (fingerprint " + saved.fingerprint + ", the file now " + model.fingerprint +
                      "): run design-gains again");
-  validate_velocity_bounds(model, saved.velocity_bounds);
-  return {std::move(model), saved.velocity_bounds, saved.certificate};
+  validate_velocity_bounds(model, saved.certificate.observer.velocity_bounds);
+  return {std::move(model), saved.certificate};
 }
 
 int run_app(CLI::App& app, int argc, char** argv, const std::function<int()>& body) {

@@ -2,8 +2,8 @@
 // parsing into library options. The apps only wire these to CLI11 and print.
 #pragma once
 
-#include "obsgain/design.hpp"
-#include "obsgain/montecarlo.hpp"
+#include "obsgain/deployment/deployment.hpp"
+#include "obsgain/validation/montecarlo.hpp"
 
 #include <CLI/CLI.hpp>
 
@@ -29,7 +29,14 @@ struct DesignArguments {
 
 void add_design_options(CLI::App& app, DesignArguments& arguments);
 
-DesignOptions to_design_options(const DesignArguments& arguments);
+// What the design options ask for: the design, and the deployment when --sample-period and its companions are given.
+struct DesignRequest {
+  DesignOptions design;
+  std::optional<DeploymentOptions> deployment;
+};
+// Progress lines go to stderr for robots of more than two joints (the Pendubot's design takes a tenth of a second),
+// unless --quiet; on a terminal the running searches also rewrite a line in place.
+DesignRequest to_design_request(const DesignArguments& arguments, const Model& model);
 RobotSource to_robot_source(const DesignArguments& arguments);
 
 struct MonteCarloArguments {
@@ -40,12 +47,12 @@ struct MonteCarloArguments {
 
 void add_monte_carlo_options(CLI::App& app, MonteCarloArguments& arguments);
 
-MonteCarloOptions to_monte_carlo_options(const MonteCarloArguments& arguments);
+// `quiet`: no progress line (else one on a terminal, rewritten in place).
+MonteCarloOptions to_monte_carlo_options(const MonteCarloArguments& arguments, bool quiet);
 
 // What a validation runs against: a design computed from the design options, or one saved by design-gains.
 struct ValidationTarget {
   Model model;
-  Eigen::VectorXd velocity_bounds;
   ObserverCertificate certificate;
 };
 ValidationTarget load_validation_target(const DesignArguments& design, const std::string& design_file);

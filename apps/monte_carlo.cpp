@@ -1,10 +1,9 @@
 // monte-carlo: simulate plant and observer from randomised initial errors against the certified envelope.
 #include "cli.hpp"
-#include "obsgain/report.hpp"
+#include "obsgain/report/report.hpp"
 
 #include <fstream>
 #include <iostream>
-#include <unistd.h>
 
 int main(int argc, char** argv) {
   CLI::App app{"Validate a certified observer design by Monte Carlo simulation", "monte-carlo"};
@@ -23,11 +22,10 @@ int main(int argc, char** argv) {
   app.add_option("--csv", csv_path, "write one row per trial to FILE")->type_name("FILE");
   app.add_option("--trajectory", trajectory_path, "write the time series of trial 0 to FILE")->type_name("FILE");
   return obsgain::run_app(app, argc, argv, [&] {
-    obsgain::MonteCarloOptions options = obsgain::to_monte_carlo_options(arguments);
-    options.progress = isatty(STDERR_FILENO) != 0 && !design.quiet;
+    const obsgain::MonteCarloOptions options = obsgain::to_monte_carlo_options(arguments, design.quiet);
     const obsgain::ValidationTarget target = obsgain::load_validation_target(design, arguments.design_file);
-    const obsgain::MonteCarloReport report =
-        obsgain::run_monte_carlo(target.model, target.velocity_bounds, target.certificate, options);
+    const obsgain::MonteCarloReport report = obsgain::run_monte_carlo(target.model, target.certificate, options);
+    obsgain::close_progress_line();
     if (json->count() > 0 && (json_path.empty() || json_path == "-")) {  // "-": stdout, as usual
       std::cout << obsgain::to_json_text(report);
     } else {
@@ -46,8 +44,9 @@ int main(int argc, char** argv) {
     if (!trajectory_path.empty()) {
       std::ofstream out(trajectory_path);
       if (!out) throw obsgain::InputError("cannot write '" + trajectory_path + "'");
-      obsgain::write_trajectory_csv(
-          obsgain::trial_trajectory(target.model, target.velocity_bounds, target.certificate, options, 0), out);
+      // Trial 0 as the statistics count it (the attempt that was kept).
+      obsgain::write_trajectory_csv(obsgain::trial_trajectory(target.model, target.certificate, options, report.records[0]),
+                                    out);
     }
     return report.certificate_held() ? 0 : 1;
   });

@@ -1,11 +1,10 @@
 // verify-bounds: certified bound brackets, the design, a Monte Carlo verdict and plots, as a report.
 #include "cli.hpp"
-#include "obsgain/report.hpp"
-#include "obsgain/robots.hpp"
-#include "obsgain/verification.hpp"
+#include "obsgain/report/report.hpp"
+#include "obsgain/parsers/robots.hpp"
+#include "obsgain/validation/verification.hpp"
 
 #include <iostream>
-#include <unistd.h>
 
 int main(int argc, char** argv) {
   CLI::App app{"Write a bound-verification report (HTML, JSON, CSV, plots)", "verify-bounds"};
@@ -22,17 +21,18 @@ int main(int argc, char** argv) {
   app.add_option("--out", out, "output directory")->required()->type_name("DIRECTORY");
   return obsgain::run_app(app, argc, argv, [&] {
     if (!monte_carlo.design_file.empty()) throw obsgain::InputError("verify-bounds computes its design: no --design");
-    obsgain::VerificationOptions options;
-    options.design = obsgain::to_design_options(design);
-    for (int i = 0; i < argc; ++i) options.command_line += (i ? " " : "") + std::string(argv[i]);
-    options.monte_carlo = obsgain::to_monte_carlo_options(monte_carlo);
-    options.monte_carlo.progress = isatty(STDERR_FILENO) != 0 && !design.quiet;
     const obsgain::Model model = obsgain::load_robot(obsgain::to_robot_source(design));
+    const obsgain::DesignRequest request = obsgain::to_design_request(design, model);
+    obsgain::VerificationOptions options;
+    options.design = request.design;
+    options.deployment = request.deployment;
+    for (int i = 0; i < argc; ++i) options.command_line += (i ? " " : "") + std::string(argv[i]);
+    options.monte_carlo = obsgain::to_monte_carlo_options(monte_carlo, design.quiet);
     const obsgain::VerificationReport report = obsgain::verify_design(model, options);
-    if (options.design.progress && model.dof() > 2) options.design.progress("writing the report and its plots");
+    if (options.design.progress) options.design.progress("writing the report and its plots");
     const obsgain::WrittenReport written = obsgain::write_verification_report(report, out);
     obsgain::close_progress_line();
-    std::cerr << obsgain::format_warnings(report.design);
+    std::cerr << obsgain::format_warnings(report.design.design);
     std::cout << obsgain::format_report(report.design) << "\n" << obsgain::format_report(report.monte_carlo) << "\n";
     std::cout << "report: " << written.html << "\n       " << written.json << "\n";
     if (!written.plots) std::cout << "plots missing: " << written.plots_note << "\n";

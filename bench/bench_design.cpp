@@ -4,10 +4,9 @@
 // the 6-joint URDF arm of examples/ (5-dimensional bound search, 64 x 64 vertex/pattern choices for L_joint;
 // target under 30 s on 2 cores).
 // Run: build/bench/bench_design --benchmark_repetitions=5
-#include "obsgain/design.hpp"
-#include "obsgain/planar_2r.hpp"
-#include "obsgain/robots.hpp"
-#include "obsgain/verification.hpp"
+#include "obsgain/design/design.hpp"
+#include "obsgain/parsers/robots.hpp"
+#include "obsgain/validation/verification.hpp"
 
 #include <benchmark/benchmark.h>
 

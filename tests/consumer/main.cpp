@@ -1,5 +1,5 @@
 // A downstream project: the paper's ||S|| for α = β = 1 through the installed library.
-#include <obsgain/lyapunov.hpp>
+#include <obsgain/certificate/lyapunov.hpp>
 
 #include <cmath>
 #include <cstdio>

@@ -1,0 +1,73 @@
+// The constants of the theorem, computed over the joint domain Q and the velocity box V̄:
+//   M0      = sup_q ||M(q)⁻¹||
+//   B       = sup_{q, v ∈ V̄} ||∂A/∂v(q, v)||
+//   L_paper = M0 (B + ||F||)                                   (the paper's Lipschitz constant)
+//   L_joint = sup_{q, w ∈ V̄, D} ||M(q)⁻¹ (J(q, w) D + F)||      (docs/theory.md, never above L_paper)
+// v (and D) enter through vertices only (the norms are convex in them), so numerical search runs over q:
+// NLopt's DIRECT-L globally, then Ipopt polishes from the best points. Both values are reported.
+#pragma once
+
+#include "obsgain/bounds/branch_and_bound.hpp"
+#include "obsgain/model/model.hpp"
+
+#include <string>
+
+namespace obsgain {
+
+struct BoundOptions {
+  int global_evaluations_per_dimension = 1500;  // DIRECT-L budget per searched joint
+  int polish_starts = 3;                        // Ipopt starts: the global argmax plus the best sample points
+  int samples_per_dimension = 64;               // sample points that seed the extra polish starts
+};
+
+// One supremum over (q, vertex): where it sits and how each optimiser found it.
+struct BoundMaximum {
+  double value = 0.0;         // the larger of the two optimisers' values
+  double global_value = 0.0;  // NLopt DIRECT-L
+  double polish_value = 0.0;  // Ipopt polish
+  Eigen::VectorXd q;                  // argmax
+  Eigen::VectorXd velocity_vertex;    // w ∈ vertices(V̄) at the argmax (empty for M0)
+  Eigen::VectorXd saturation_pattern;  // diagonal of D at the argmax (L_joint only)
+  int global_evaluations = 0;
+  int polish_evaluations = 0;
+};
+
+// A certified bracket [lower, upper] of one supremum (certified_bounds.hpp fills it).
+struct BoundBracket {
+  double lower = 0.0, upper = 0.0;
+  Eigen::VectorXd argmax;
+  int boxes = 0;
+  double seconds = 0.0;
+  SearchStop stop = SearchStop::gap;  // time: the wall-clock limit ended it (the bracket may differ between runs)
+};
+
+struct BoundReport {
+  Eigen::VectorXd velocity_bounds;
+  BoundMaximum M0, B, L_joint;
+  double F_norm = 0.0;
+  double L_paper = 0.0;
+  bool certified = false;  // the values are the certified brackets' upper ends
+  const char* method() const { return certified ? "certified" : "numeric"; }
+  BoundBracket M0_bracket, B_bracket, L_joint_bracket;
+  double wall_seconds = 0.0;
+};
+
+BoundReport compute_bounds(const Model& model, const Eigen::VectorXd& velocity_bounds,
+                           const BoundOptions& options = {});
+
+// The pieces the searches evaluate, exposed for tests and cross-checks on grids.
+double inverse_inertia_norm(const Model& model, const Eigen::VectorXd& q);  // ||M(q)⁻¹||
+double coriolis_jacobian_norm(const Model& model, const Eigen::VectorXd& q, const Eigen::VectorXd& w);  // ||J(q, w)||
+double joint_lipschitz_norm(const Model& model, const Eigen::VectorXd& q, const Eigen::VectorXd& w,
+                            const Eigen::VectorXd& saturation_pattern);  // ||M⁻¹(J D + F)||
+
+// The objectives at one configuration, maximised over their discrete choices (what the searches and the
+// certified branch and bound's attained values evaluate): max over vertices w of ||J(q, w)||, and max over
+// vertices w and saturation patterns D of ||M⁻¹(J D + F)||.
+double max_coriolis_jacobian_norm(const Model& model, const Eigen::VectorXd& q, const Eigen::VectorXd& velocity_bounds);
+double max_joint_lipschitz_norm(const Model& model, const Eigen::VectorXd& q, const Eigen::VectorXd& velocity_bounds);
+
+// The 2^n vertices of the box with half-widths V, one per column.
+Eigen::MatrixXd box_vertices(const Eigen::VectorXd& velocity_bounds);
+
+}  // namespace obsgain

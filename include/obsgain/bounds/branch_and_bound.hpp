@@ -1,0 +1,74 @@
+// A best-first interval branch and bound for sup_x f(x) over a box: the boxes with the largest upper bounds are
+// split, children that cannot beat the best value attained are discarded (their proven bounds kept), and the
+// bracket [attained, largest open or discarded bound] is a proof for the whole box whenever it stops.
+//
+// Deterministic: the search runs in synchronous rounds. Each round takes a fixed number of the best boxes (ties
+// broken by creation order), evaluates their children in parallel against the bracket as it stood when the round
+// began, and merges the results in box order. The bracket is therefore the same for any thread count, on every
+// run, unless the wall-clock limit ends the search (the result then says so).
+#pragma once
+
+#include "obsgain/numerics/interval.hpp"
+
+#include <Eigen/Dense>
+
+#include <chrono>
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace obsgain {
+
+// Where a running search stands: told about four times a second once a search has run for a second.
+struct SearchProgress {
+  const char* bound = "";  // "M0", "B", "L_joint", "C_q"
+  int boxes = 0;
+  double lower = 0.0, upper = 0.0;  // the bracket so far
+  double relative_gap = 0.0, target_gap = 0.0;
+  double seconds = 0.0;
+  double seconds_left = -1.0;  // until the wall-clock limit; -1: none
+};
+
+using ProgressCallback = std::function<void(const SearchProgress&)>;
+
+// What ended a search.
+enum class SearchStop { gap, boxes, time };
+
+struct BranchAndBoundOptions {
+  double relative_gap = 1e-6;  // stop when upper - lower <= relative_gap * upper
+  int max_boxes = 2000000;     // stop after this many boxes (deterministic)
+  std::chrono::steady_clock::time_point deadline = std::chrono::steady_clock::time_point::max();  // wall clock
+  int threads = 0;             // 0: all cores
+  const char* name = "";
+  ProgressCallback progress;   // optional; called from the coordinating thread
+};
+
+// An upper bound of f over one box, and how much each side contributes to the bound's excess (the side with the
+// largest weight is split next; a side of weight 0 never is).
+struct BoxBound {
+  double upper = 0.0;
+  std::vector<double> split_weight;
+};
+
+struct BranchAndBoundProblem {
+  std::vector<Interval> domain;
+  // A proven upper bound of f over `box`. `lower` is the best value attained so far: the bound may stop refining
+  // as soon as it is sure to be below it (it must still be an upper bound).
+  std::function<BoxBound(const std::vector<Interval>& box, double lower)> bound;
+  // f at a point (a value attained: a lower bound of the supremum).
+  std::function<double(const Eigen::VectorXd& x)> value;
+};
+
+struct BranchAndBoundResult {
+  double lower = 0.0, upper = 0.0;
+  Eigen::VectorXd argmax;  // where `lower` is attained
+  int boxes = 0;
+  double seconds = 0.0;
+  SearchStop stop = SearchStop::gap;
+};
+
+// `seed`: a point where f is large (the numerical search's argmax), evaluated first.
+BranchAndBoundResult branch_and_bound(const BranchAndBoundProblem& problem, const Eigen::VectorXd& seed,
+                                      const BranchAndBoundOptions& options);
+
+}  // namespace obsgain

@@ -1,0 +1,48 @@
+// Certified brackets [lower, upper] for M0, B and L_joint: best-first interval branch and bound over the
+// searched joints, on all cores, with the model's dynamics evaluated on intervals and interval derivatives.
+// `lower` is a value attained at a point; `upper` provably bounds the supremum (outward rounding throughout,
+// exact vertex reduction in v and D, centred forms whose excess shrinks quadratically with the box).
+#pragma once
+
+#include "obsgain/bounds/bounds.hpp"
+#include "obsgain/bounds/branch_and_bound.hpp"
+
+#include <optional>
+#include <string>
+
+namespace obsgain {
+
+struct CertifiedOptions {
+  double relative_gap = 1e-6;  // stop a bound when upper - lower <= relative_gap * upper
+  double budget_seconds = 120;  // wall time for the three bounds together; 0 = until the gap is reached
+  int max_boxes = 2000000;      // per bound; reaching it leaves a wider (still valid) bracket
+  int threads = 0;              // 0: all cores
+  ProgressCallback progress;    // optional
+};
+
+struct CertifiedBounds {
+  BoundBracket M0, B, L_joint;
+};
+
+// Why a model cannot be certified, or empty when it can.
+std::string certification_unavailable(const Model& model);
+
+// Seeds its lower bounds with the numerical search's maxima. std::nullopt when the model cannot be
+// evaluated on intervals (certification_unavailable says why).
+std::optional<CertifiedBounds> certify_bounds(const Model& model, const BoundReport& numeric,
+                                              const CertifiedOptions& options = {});
+
+// C_q = sup ||∂h/∂q|| over the joint domain, a in the acceleration box and v in the velocity box, with
+// h(q) = M(q) a + A(q, v) + g(q): how far the model's prediction of the torque moves when it is evaluated at a
+// measured rather than the true position (the sampled observer's certificate, deployment.hpp). The budget is
+// options.budget_seconds; std::nullopt when sensitivity_unavailable says why not.
+std::string sensitivity_unavailable(const Model& model);
+std::optional<BoundBracket> certify_position_sensitivity(const Model& model, const Eigen::VectorXd& velocity_bounds,
+                                                         const Eigen::VectorXd& acceleration_bounds,
+                                                         const CertifiedOptions& options);
+
+// Replaces the report's M0, B, L_joint (and L_paper) by the brackets' upper ends: θ* then rests on
+// provable bounds.
+void apply_certified_bounds(BoundReport& report, const CertifiedBounds& certified);
+
+}  // namespace obsgain

@@ -1,0 +1,111 @@
+// design_gains: from a model and what the user asks (a target rate γ, or a gain θ to evaluate) to the
+// observer gains and their certificate, with every number the certificate rests on.
+#pragma once
+
+#include "obsgain/bounds/bounds.hpp"
+#include "obsgain/bounds/certified_bounds.hpp"
+#include "obsgain/certificate/lyapunov.hpp"
+#include "obsgain/model/model.hpp"
+#include "obsgain/runtime/certified_observer.hpp"
+
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace obsgain {
+
+enum class LipschitzKind { paper, joint };
+enum class BoundMethod { certified, numeric };
+
+struct DesignOptions {
+  std::optional<double> gamma;  // target rate: θ is the smallest gain that certifies it
+  std::optional<double> theta;  // or: evaluate this gain and report the rate it certifies
+  double alpha = 1.0;
+  double beta = 1.0;
+  bool optimize_shape = false;  // β = 1, best α for the chosen certificate (docs/theory.md, "Shape optimisation")
+  LipschitzKind lipschitz = LipschitzKind::joint;
+  std::optional<double> L_override;  // e.g. the paper's 54.01
+  CertificateKind certificate = CertificateKind::tight;
+  // The tight certificate's rate is a supremum; its matrix P is computed at γ_sup (1 - rate_margin), which
+  // buys a finite, much smaller envelope constant k. A target-γ design raises θ so that γ itself is certified.
+  double rate_margin = 0.01;
+  Eigen::VectorXd velocity_bounds;  // empty: the model's own
+  // certified: interval branch and bound; a model that cannot be evaluated on intervals then gets an
+  // estimate that is never called certified. numeric: the optimisers' lower estimates, by request.
+  BoundMethod bound_method = BoundMethod::certified;
+  BoundOptions bounds;
+  CertifiedOptions certified_bounds;
+  // Told the start of each phase (bounds, certified bounds, ...); the apps print it on stderr for robots of more
+  // than two joints, unless --quiet.
+  std::function<void(const std::string&)> progress;
+};
+
+// One certificate evaluated for the design, so that paper and tight can be shown side by side.
+struct CertificateSummary {
+  CertifiedObserver observer;  // the gains at the chosen θ and what they certify (observer.gamma: the envelope's rate)
+  double theta_star = 0.0;     // smallest θ for the target γ (for a θ evaluation: for any positive rate)
+  double rate = 0.0;           // the rate certified at θ (a supremum for tight; may be <= 0)
+  std::optional<double> lmi_max_eig;  // tight only: the LMI check, <= 0 certifies
+};
+
+struct ShapeReport {
+  bool optimized = false;
+  std::string objective;               // what was minimised: "S_norm", "theta_star" or "-gamma"
+  double alpha_global = 0.0, alpha_polish = 0.0;          // NLopt DIRECT-L, then Ipopt
+  double objective_global = 0.0, objective_polish = 0.0;
+  int evaluations = 0;
+};
+
+struct Design {
+  std::string robot_name;
+  RobotSource robot_source;
+  int dof = 0;
+  Eigen::VectorXd armature;  // the model's reflected rotor inertias (zeros: none)
+  std::string robot_fingerprint;  // the model file's, so that a later validation can refuse a changed file
+  Eigen::VectorXd velocity_bounds;
+  BoundReport bounds;
+  double L_used = 0.0;
+  std::string L_source;  // "joint", "paper" or "override"
+  double alpha = 1.0, beta = 1.0;
+  ShapeReport shape;
+  LyapunovSolution lyapunov;
+  CertificateKind certificate = CertificateKind::tight;
+  std::optional<double> target_gamma;
+  double rate_margin = 0.0;
+  CertificateSummary paper, tight;
+  std::vector<std::string> notes;     // what loading the model decided (chain, lumped bodies, armature)
+  std::vector<std::string> warnings;
+  // The certificate is a proof only if every bound it uses is proven: certified bounds, or an L given by the
+  // user (whose responsibility it then is). Otherwise the design is an estimate, and this says why.
+  std::string not_proven_reason;
+  double wall_seconds = 0.0;
+
+  bool proven() const { return not_proven_reason.empty(); }
+
+  const CertificateSummary& selected() const { return certificate == CertificateKind::paper ? paper : tight; }
+};
+
+// Throws InputError for invalid options (non-positive or NaN numbers, both or neither of γ and θ, ...).
+void validate_design_options(const DesignOptions& options);
+
+Design design_gains(const Model& model, const DesignOptions& options);
+
+// The bounds a design rests on: numeric search, then certified brackets when asked and possible.
+// Appends a warning when certified bounds were asked for but the model cannot give them.
+BoundReport design_bounds(const Model& model, const Eigen::VectorXd& velocity_bounds, const DesignOptions& options,
+                          std::vector<std::string>& warnings);
+
+// Given the bounds, the rest of the design.
+Design design_from_bounds(const Model& model, const BoundReport& bounds, const DesignOptions& options);
+
+// The velocity box a request means: its own, or the model's (InputError when neither gives one).
+Eigen::VectorXd requested_velocity_bounds(const Model& model, const DesignOptions& options);
+
+// Why a design does not meet what was asked (the apps exit 1 with this line), or empty: a --gamma request
+// needs the selected certificate to hold, on proven bounds unless the user chose --bounds numeric.
+std::string unmet_request(const Design& design, const DesignOptions& options);
+
+const char* to_string(LipschitzKind kind);
+
+}  // namespace obsgain

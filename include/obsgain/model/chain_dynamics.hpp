@@ -1,0 +1,325 @@
+// The dynamics of a serial chain (serial_chain.hpp) as templates on the scalar: the same code runs on double
+// (design, simulation, the real-time observer), on intervals, on affine forms and on forward-mode duals of
+// them (certified bounds). Every algorithm works in body frames with the rotations kept factored (below).
+//   chain_mass_matrix       M(q) by the composite-rigid-body algorithm (one pass, O(n²) frame changes)
+//   chain_forces            τ = M(q) q'' + B(q; x, y) [+ g(q)] by a bilinear recursive Newton–Euler pass:
+//                           B is the symmetric bilinear form with B(q; v, v) = C(q, v) v = A(q, v)
+//   chain_coriolis_tensors  N_i(q) with A_i(q, v) = vᵀ N_i(q) v: N_i[j][k] = B_i(q; e_j, e_k), one pass per
+//                           pair, each entry computed directly (no difference of evaluations)
+#pragma once
+
+#include "obsgain/model/serial_chain.hpp"
+
+#include <array>
+#include <cmath>
+
+namespace obsgain {
+
+// Small fixed-size algebra on any scalar (Eigen's expression templates do not mix double with duals of
+// intervals without ceremony, and these loops are all the recursions need).
+template <class S>
+using Vec3 = std::array<S, 3>;
+
+namespace chain_detail {
+
+template <class S>
+Vec3<S> cross(const Vec3<S>& a, const Vec3<S>& b) {
+  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+}
+template <class S>
+Vec3<S> cross(const Eigen::Vector3d& a, const Vec3<S>& b) {
+  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+}
+template <class S>
+Vec3<S> add(const Vec3<S>& a, const Vec3<S>& b) {
+  return {a[0] + b[0], a[1] + b[1], a[2] + b[2]};
+}
+template <class S>
+Vec3<S> times(double s, const Vec3<S>& a) {
+  return {s * a[0], s * a[1], s * a[2]};
+}
+template <class S>
+Vec3<S> scaled(const Eigen::Vector3d& a, double s) {
+  return {S(a[0] * s), S(a[1] * s), S(a[2] * s)};
+}
+template <class S>
+Vec3<S> zero() {
+  return {S(0.0), S(0.0), S(0.0)};
+}
+// R v for a constant R (not named apply: std::apply would join the overload set through std::array).
+template <class S>
+Vec3<S> rotate(const Eigen::Matrix3d& R, const Vec3<S>& v) {
+  Vec3<S> r;
+  for (int i = 0; i < 3; ++i) r[i] = R(i, 0) * v[0] + R(i, 1) * v[1] + R(i, 2) * v[2];
+  return r;
+}
+template <class S>
+S dot(const Eigen::Vector3d& a, const Vec3<S>& b) {
+  return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+// ½ (a_x × b_y + a_y × b_x): the symmetrised product of two quantities linear in the joint velocities.
+// `same`: x and y are one velocity, and the product is computed once.
+template <class S>
+Vec3<S> symmetric_cross(const Vec3<S>& ax, const Vec3<S>& by, const Vec3<S>& ay, const Vec3<S>& bx, bool same) {
+  if (same) return cross(ax, by);
+  return times(0.5, add(cross(ax, by), cross(ay, bx)));
+}
+
+}  // namespace chain_detail
+
+// Where each body sits relative to its parent at q. Body i's frame maps into body i-1's by P_i Rot(a_i, q_i)
+// (revolute) or P_i (prismatic), P_i the joint's constant placement; p[i] is body i's origin in body i-1's
+// frame. The rotation is kept factored — P_i applied in double, Rot by Rodrigues with cos q_i and sin q_i —
+// rather than multiplied out: on intervals a multiplied-out 3 x 3 matrix forgets that its entries share one
+// angle, and the enclosures of a long chain blow up (the wrapping effect).
+template <class S>
+struct ChainKinematics {
+  std::array<S, kMaxChainJoints> c, s;
+  std::array<Vec3<S>, kMaxChainJoints> p;
+};
+
+template <class S>
+void chain_kinematics(const SerialChain& chain, const S* q, ChainKinematics<S>& k) {
+  using std::cos;
+  using std::sin;
+  for (int i = 0; i < chain.dof(); ++i) {
+    const ChainJoint& joint = chain.joints[i];
+    if (joint.type == JointType::revolute) {
+      k.c[i] = cos(q[i]);
+      k.s[i] = sin(q[i]);
+      for (int r = 0; r < 3; ++r) k.p[i][r] = S(joint.translation[r]);
+    } else {
+      k.c[i] = S(1.0);
+      k.s[i] = S(0.0);
+      const Eigen::Vector3d Pa = joint.rotation * joint.axis;
+      for (int r = 0; r < 3; ++r) k.p[i][r] = joint.translation[r] + Pa[r] * q[i];
+    }
+  }
+}
+
+namespace chain_detail {
+
+// Rot(a, ±q) v = (a aᵀ) v + c (I - a aᵀ) v ± s (a × v), the projectors in double: for an axis along a
+// coordinate axis each component then involves c and s at most once (no dependency on intervals).
+template <class S>
+Vec3<S> rodrigues(const Eigen::Vector3d& a, const S& c, const S& s, const Vec3<S>& v, double sign) {
+  const Eigen::Matrix3d along = a * a.transpose();
+  const Eigen::Matrix3d across = Eigen::Matrix3d::Identity() - along;
+  const Vec3<S> parallel = rotate(along, v), perpendicular = rotate(across, v), axv = cross(a, v);
+  Vec3<S> r;
+  for (int i = 0; i < 3; ++i) r[i] = parallel[i] + perpendicular[i] * c + sign * (axv[i] * s);
+  return r;
+}
+
+// From body i's frame into body i-1's, and back.
+template <class S>
+Vec3<S> to_parent(const SerialChain& chain, const ChainKinematics<S>& k, int i, const Vec3<S>& v) {
+  const ChainJoint& joint = chain.joints[i];
+  return rotate(joint.rotation, joint.type == JointType::revolute ? rodrigues(joint.axis, k.c[i], k.s[i], v, 1.0) : v);
+}
+template <class S>
+Vec3<S> from_parent(const SerialChain& chain, const ChainKinematics<S>& k, int i, const Vec3<S>& v) {
+  const ChainJoint& joint = chain.joints[i];
+  const Vec3<S> u = rotate(Eigen::Matrix3d(joint.rotation.transpose()), v);
+  return joint.type == JointType::revolute ? rodrigues(joint.axis, k.c[i], k.s[i], u, -1.0) : u;
+}
+
+}  // namespace chain_detail
+
+// The angular velocity of every body for one vector of joint velocities (linear in it), in body frames:
+// `inflow[i]` is body i-1's, `body[i]` body i's own.
+template <class S>
+struct ChainVelocities {
+  std::array<Vec3<S>, kMaxChainJoints> inflow, body;
+};
+
+template <class S>
+void chain_velocities(const SerialChain& chain, const ChainKinematics<S>& k, const double* qd, ChainVelocities<S>& w) {
+  using namespace chain_detail;
+  Vec3<S> previous = zero<S>();
+  for (int i = 0; i < chain.dof(); ++i) {
+    w.inflow[i] = from_parent(chain, k, i, previous);
+    const bool revolute = chain.joints[i].type == JointType::revolute;
+    w.body[i] = revolute ? add(w.inflow[i], scaled<S>(chain.joints[i].axis, qd[i])) : w.inflow[i];
+    previous = w.body[i];
+  }
+}
+
+// τ = M(q) qdd + B(q; x, y) [+ g(q)] by recursive Newton–Euler in body frames. Every quantity is either linear in
+// the velocities (ω, computed for x and for y in wx, wy) or quadratic (accelerations, forces); a product of two
+// linear ones is symmetrised, so the pass is the symmetric bilinear form of the usual one, which it equals for
+// x = y (then pass the same velocities twice: `x == y` computes each product once).
+template <class S>
+void chain_forces(const SerialChain& chain, const ChainKinematics<S>& k, const ChainVelocities<S>& wx,
+                  const ChainVelocities<S>& wy, const double* x, const double* y, const double* qdd, bool with_gravity,
+                  S* tau) {
+  using namespace chain_detail;
+  const int n = chain.dof();
+  const bool same = x == y;
+  std::array<Vec3<S>, kMaxChainJoints> dw, a, f, m;
+  Vec3<S> dw_prev = zero<S>();
+  // The base accelerates upwards at -gravity: gravity then acts on every body through the recursion.
+  Vec3<S> a_prev = with_gravity ? scaled<S>(chain.gravity, -1.0) : zero<S>();
+  for (int i = 0; i < n; ++i) {
+    const Eigen::Vector3d& axis = chain.joints[i].axis;
+    const Vec3<S>& p = k.p[i];
+    const Vec3<S> w0x = i > 0 ? wx.body[i - 1] : zero<S>(), w0y = i > 0 ? wy.body[i - 1] : zero<S>();
+    // The origin's acceleration: a_prev + ω̇ × p + ω × (ω × p), in the parent's frame, then in this body's.
+    const Vec3<S> centripetal = symmetric_cross(w0x, cross(w0y, p), w0y, cross(w0x, p), same);
+    const Vec3<S> a_origin = from_parent(chain, k, i, add(add(a_prev, cross(dw_prev, p)), centripetal));
+    const Vec3<S> relative = symmetric_cross(wx.inflow[i], scaled<S>(axis, y[i]), wy.inflow[i], scaled<S>(axis, x[i]), same);
+    if (chain.joints[i].type == JointType::revolute) {
+      dw[i] = add(add(from_parent(chain, k, i, dw_prev), scaled<S>(axis, qdd[i])), relative);
+      a[i] = a_origin;
+    } else {
+      dw[i] = from_parent(chain, k, i, dw_prev);
+      a[i] = add(add(a_origin, scaled<S>(axis, qdd[i])), times(2.0, relative));  // Coriolis 2 ω × ḋ
+    }
+    const RigidBody& body = chain.bodies[i];
+    const Vec3<S> c{S(body.com[0]), S(body.com[1]), S(body.com[2])};
+    const Vec3<S>& bx = wx.body[i];
+    const Vec3<S>& by = wy.body[i];
+    const Vec3<S> a_com = add(add(a[i], cross(dw[i], c)), symmetric_cross(bx, cross(by, c), by, cross(bx, c), same));
+    for (int r = 0; r < 3; ++r) f[i][r] = body.mass * a_com[r];
+    const Vec3<S> gyroscopic = symmetric_cross(bx, rotate(body.inertia, by), by, rotate(body.inertia, bx), same);
+    m[i] = add(add(rotate(body.inertia, dw[i]), gyroscopic), cross(c, f[i]));
+    dw_prev = dw[i];
+    a_prev = a[i];
+  }
+  for (int i = n - 1; i >= 0; --i) {
+    if (i + 1 < n) {
+      const Vec3<S> f_child = to_parent(chain, k, i + 1, f[i + 1]);
+      f[i] = add(f[i], f_child);
+      m[i] = add(add(m[i], to_parent(chain, k, i + 1, m[i + 1])), cross(k.p[i + 1], f_child));
+    }
+    const ChainJoint& joint = chain.joints[i];
+    tau[i] = dot(joint.axis, joint.type == JointType::revolute ? m[i] : f[i]);
+    if (chain.armature.size() > i && chain.armature[i] != 0.0) tau[i] = tau[i] + chain.armature[i] * qdd[i];
+  }
+}
+
+namespace chain_detail {
+
+// A subtree's inertia about a frame's origin: mass, first moment h = m c, rotational inertia (rows).
+template <class S>
+struct CompositeInertia {
+  double mass = 0.0;
+  Vec3<S> moment;
+  std::array<Vec3<S>, 3> rotational;
+};
+
+template <class S>
+CompositeInertia<S> body_inertia(const RigidBody& body) {
+  CompositeInertia<S> I;
+  I.mass = body.mass;
+  const Eigen::Matrix3d about_origin =
+      body.inertia + body.mass * (body.com.squaredNorm() * Eigen::Matrix3d::Identity() - body.com * body.com.transpose());
+  for (int r = 0; r < 3; ++r) {
+    I.moment[r] = S(body.mass * body.com[r]);
+    for (int c = 0; c < 3; ++c) I.rotational[r][c] = S(about_origin(r, c));
+  }
+  return I;
+}
+
+// Body i's composite inertia expressed about body i-1's origin, in its frame: h' = R h + m p, and
+// I' = R I Rᵀ - m [p×]² - [p×][(R h)×] - [(R h)×][p×] (parallel axes, with the first moment).
+template <class S>
+void add_to_parent(const SerialChain& chain, const ChainKinematics<S>& k, int i, const CompositeInertia<S>& child,
+                   CompositeInertia<S>& parent) {
+  // R I Rᵀ = (R (R I)ᵀ)ᵀ: rotate I's columns (its rows, by symmetry) into T = R I, then T's rows.
+  std::array<Vec3<S>, 3> columns;  // columns[j] = T's column j
+  for (int j = 0; j < 3; ++j) columns[j] = to_parent(chain, k, i, child.rotational[j]);
+  std::array<Vec3<S>, 3> rotated;  // rows of R I Rᵀ
+  for (int r = 0; r < 3; ++r) rotated[r] = to_parent(chain, k, i, Vec3<S>{columns[0][r], columns[1][r], columns[2][r]});
+  const Vec3<S> h = to_parent(chain, k, i, child.moment);
+  const Vec3<S>& p = k.p[i];
+  parent.mass += child.mass;
+  parent.moment = add(parent.moment, add(h, times(child.mass, p)));
+  // -[a×][b×] v = -a × (b × v) = (a·b) v - b (a·v): entry (r, c) = (a·b) δ_rc - b_r a_c.
+  const S pp = p[0] * p[0] + p[1] * p[1] + p[2] * p[2], ph = p[0] * h[0] + p[1] * h[1] + p[2] * h[2];
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) {
+      S shift = child.mass * (-(p[r] * p[c])) - p[r] * h[c] - h[r] * p[c];
+      if (r == c) shift = shift + child.mass * pp + 2.0 * ph;
+      parent.rotational[r][c] = parent.rotational[r][c] + (r <= c ? rotated[r][c] : rotated[c][r]) + shift;
+    }
+}
+
+}  // namespace chain_detail
+
+// M(q) by the composite-rigid-body algorithm, written into M[i * n + j]: M_ji = S_jᵀ (I^c_i S_i) for j <= i, the
+// composite inertia's momentum carried to body j's frame.
+template <class S>
+void chain_mass_matrix(const SerialChain& chain, const ChainKinematics<S>& k, S* M) {
+  using namespace chain_detail;
+  const int n = chain.dof();
+  std::array<CompositeInertia<S>, kMaxChainJoints> composite;
+  for (int i = 0; i < n; ++i) composite[i] = body_inertia<S>(chain.bodies[i]);
+  for (int i = n - 1; i > 0; --i) add_to_parent(chain, k, i, composite[i], composite[i - 1]);
+  for (int i = 0; i < n; ++i) {
+    const Eigen::Vector3d& axis = chain.joints[i].axis;
+    const CompositeInertia<S>& I = composite[i];
+    // Momentum of the subtree moving with S_i: revolute ω = a: (K, L) = (I a, a × h); prismatic v = a: (h × a, m a).
+    Vec3<S> K, L;
+    if (chain.joints[i].type == JointType::revolute) {
+      for (int r = 0; r < 3; ++r) K[r] = I.rotational[r][0] * axis[0] + I.rotational[r][1] * axis[1] + I.rotational[r][2] * axis[2];
+      L = cross(axis, I.moment);
+    } else {
+      K = times(-1.0, cross(axis, I.moment));
+      L = scaled<S>(axis, I.mass);
+    }
+    for (int j = i; j >= 0; --j) {
+      if (j < i) {
+        L = to_parent(chain, k, j + 1, L);
+        K = add(to_parent(chain, k, j + 1, K), cross(k.p[j + 1], L));
+      }
+      const ChainJoint& joint = chain.joints[j];
+      S value = dot(joint.axis, joint.type == JointType::revolute ? K : L);
+      if (j == i && chain.armature.size() > i && chain.armature[i] != 0.0) value = value + chain.armature[i];
+      M[j * n + i] = value;
+      M[i * n + j] = value;
+    }
+  }
+}
+
+// g(q): the bilinear pass at rest.
+template <class S>
+void chain_gravity(const SerialChain& chain, const ChainKinematics<S>& k, S* g) {
+  std::array<double, kMaxChainJoints> zero{};
+  ChainVelocities<S> rest;
+  chain_velocities(chain, k, zero.data(), rest);
+  chain_forces(chain, k, rest, rest, zero.data(), zero.data(), zero.data(), true, g);
+}
+
+// A(q, v) = C(q, v) v.
+template <class S>
+void chain_coriolis(const SerialChain& chain, const ChainKinematics<S>& k, const double* v, S* A) {
+  std::array<double, kMaxChainJoints> zero{};
+  ChainVelocities<S> w;
+  chain_velocities(chain, k, v, w);
+  chain_forces(chain, k, w, w, v, v, zero.data(), false, A);
+}
+
+// N_i(q), written into N[(i * n + j) * n + l]: N_i[j][l] = B_i(q; e_j, e_l).
+template <class S>
+void chain_coriolis_tensors(const SerialChain& chain, const ChainKinematics<S>& k, S* N) {
+  const int n = chain.dof();
+  std::array<std::array<double, kMaxChainJoints>, kMaxChainJoints> unit{};
+  std::array<ChainVelocities<S>, kMaxChainJoints> w;
+  for (int j = 0; j < n; ++j) {
+    unit[j][j] = 1.0;
+    chain_velocities(chain, k, unit[j].data(), w[j]);
+  }
+  const std::array<double, kMaxChainJoints> zero{};
+  std::array<S, kMaxChainJoints> tau;
+  for (int j = 0; j < n; ++j)
+    for (int l = j; l < n; ++l) {
+      chain_forces(chain, k, w[j], w[l], unit[j].data(), unit[l].data(), zero.data(), false, tau.data());
+      for (int i = 0; i < n; ++i) {
+        N[(i * n + j) * n + l] = tau[i];
+        N[(i * n + l) * n + j] = tau[i];
+      }
+    }
+}
+
+}  // namespace obsgain

@@ -1,0 +1,126 @@
+// The dynamics of any Model, computed from its structure: as templates on the scalar (what the certified bounds
+// evaluate on intervals and affine forms), and in double for design, simulation and the real-time observer.
+// The double functions write into caller-owned storage and allocate nothing (the observer's update relies on it).
+#pragma once
+
+#include "obsgain/model/chain_dynamics.hpp"
+#include "obsgain/model/model.hpp"
+
+#include <Eigen/Dense>
+
+#include <array>
+#include <vector>
+
+namespace obsgain {
+
+// ---- any scalar: q holds every joint; matrices row-major, M[i * n + j], N[(i * n + j) * n + k], g[i] ----
+
+template <class S>
+void mass_matrix_of(const Model& model, const S* q, S* M) {
+  if (const auto* p = std::get_if<Planar2RParameters>(&model.structure)) {
+    const auto m = planar_2r_mass_matrix(*p, q[1]);
+    for (int i = 0; i < 4; ++i) M[i] = m(i / 2, i % 2);
+    return;
+  }
+  const SerialChain& chain = std::get<SerialChain>(model.structure);
+  ChainKinematics<S> k;
+  chain_kinematics(chain, q, k);
+  chain_mass_matrix(chain, k, M);
+}
+
+template <class S>
+void coriolis_tensors_of(const Model& model, const S* q, S* N) {
+  if (const auto* p = std::get_if<Planar2RParameters>(&model.structure)) {
+    const auto tensors = planar_2r_coriolis_tensors(*p, q[1]);
+    for (int i = 0; i < 8; ++i) N[i] = tensors[i / 4]((i / 2) % 2, i % 2);
+    return;
+  }
+  const SerialChain& chain = std::get<SerialChain>(model.structure);
+  ChainKinematics<S> k;
+  chain_kinematics(chain, q, k);
+  chain_coriolis_tensors(chain, k, N);
+}
+
+template <class S>
+void gravity_of(const Model& model, const S* q, S* g) {
+  if (const auto* p = std::get_if<Planar2RParameters>(&model.structure)) {
+    const auto v = planar_2r_gravity(*p, q[0], q[1]);
+    g[0] = v(0);
+    g[1] = v(1);
+    return;
+  }
+  const SerialChain& chain = std::get<SerialChain>(model.structure);
+  ChainKinematics<S> k;
+  chain_kinematics(chain, q, k);
+  chain_gravity(chain, k, g);
+}
+
+// ---- double ----
+
+// The dynamics at one configuration, evaluated repeatedly: the real-time observer needs M and g once and A at
+// four velocities per instant, and a chain's kinematics (every joint's sine and cosine) are computed once here.
+class ConfigurationDynamics {
+ public:
+  explicit ConfigurationDynamics(const Model& model) : model_(model) {}
+  void set(const Eigen::Ref<const Eigen::VectorXd>& q) noexcept;
+  void mass_matrix(Eigen::Ref<Eigen::MatrixXd> M) const noexcept;
+  void gravity(Eigen::Ref<Eigen::VectorXd> g) const noexcept;
+  // A(q, v) = C(q, v) v.
+  void coriolis(const Eigen::Ref<const Eigen::VectorXd>& v, Eigen::Ref<Eigen::VectorXd> A) const noexcept;
+  // out_i = xᵀ N_i(q) y.
+  void coriolis_bilinear(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& y,
+                         Eigen::Ref<Eigen::VectorXd> out) const noexcept;
+
+ private:
+  const Model& model_;
+  std::array<double, 2> planar_q_{};  // the planar family's (q1, q2)
+  ChainKinematics<double> kinematics_{};
+};
+
+void mass_matrix(const Model& model, const Eigen::Ref<const Eigen::VectorXd>& q, Eigen::Ref<Eigen::MatrixXd> M);
+// A(q, v) = C(q, v) v.
+void coriolis(const Model& model, const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Ref<const Eigen::VectorXd>& v,
+              Eigen::Ref<Eigen::VectorXd> A);
+// out_i = xᵀ N_i(q) y, the symmetric bilinear form of A, which the simulation's error equation needs at every step.
+void coriolis_bilinear(const Model& model, const Eigen::Ref<const Eigen::VectorXd>& q,
+                       const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& y,
+                       Eigen::Ref<Eigen::VectorXd> out);
+void gravity(const Model& model, const Eigen::Ref<const Eigen::VectorXd>& q, Eigen::Ref<Eigen::VectorXd> g);
+// N_i(q) (symmetric) with A_i(q, v) = vᵀ N_i(q) v.
+void coriolis_tensors(const Model& model, const Eigen::Ref<const Eigen::VectorXd>& q, std::vector<Eigen::MatrixXd>& N);
+
+// ∂A/∂v at (q, w) from the Coriolis tensors: J = 2 [wᵀN_1; …; wᵀN_n]. Linear in w (docs/theory.md, "The constants").
+Eigen::MatrixXd coriolis_jacobian(const std::vector<Eigen::MatrixXd>& N, const Eigen::Ref<const Eigen::VectorXd>& w);
+
+// Joints whose positions M and C depend on; the bound searches run over these only. Rotating or translating a
+// whole serial chain about its first joint moves no body relative to another: its M and C do not depend on q1.
+std::vector<int> configuration_joints(const Model& model);
+
+// A proven lower bound of λmin(M(q)) for every q (zero when none is known beyond positive semidefiniteness).
+double inertia_floor(const Model& model);
+
+// Scratch for the functions below, sized once: loops that reuse it allocate nothing.
+struct DynamicsWorkspace {
+  Eigen::MatrixXd M;
+  Eigen::LLT<Eigen::MatrixXd> llt;
+  Eigen::VectorXd A, g, rhs;
+  explicit DynamicsWorkspace(int n) : M(n, n), llt(n), A(n), g(n), rhs(n) {}
+};
+
+// The plant's acceleration where M(q) is already factorised (`llt`, at the configuration `at` holds):
+// q'' = M(q)⁻¹ (τ - A(q, v) - F v - g(q)).
+void plant_acceleration(const Model& model, const ConfigurationDynamics& at, const Eigen::LLT<Eigen::MatrixXd>& llt,
+                        const Eigen::Ref<const Eigen::VectorXd>& v, const Eigen::Ref<const Eigen::VectorXd>& tau,
+                        Eigen::Ref<Eigen::VectorXd> qdd, DynamicsWorkspace& work);
+
+// q'' = M(q)⁻¹ (τ - A(q, v) - F v - g(q)) for the generalised force τ = H u.
+void forward_dynamics(const Model& model, const Eigen::Ref<const Eigen::VectorXd>& q,
+                      const Eigen::Ref<const Eigen::VectorXd>& v, const Eigen::Ref<const Eigen::VectorXd>& tau,
+                      Eigen::Ref<Eigen::VectorXd> qdd, DynamicsWorkspace& work);
+
+// τ = M(q) a + A(q, v) + F v + g(q): the generalised force that gives acceleration a (computed torque).
+void inverse_dynamics(const Model& model, const Eigen::Ref<const Eigen::VectorXd>& q,
+                      const Eigen::Ref<const Eigen::VectorXd>& v, const Eigen::Ref<const Eigen::VectorXd>& a,
+                      Eigen::Ref<Eigen::VectorXd> tau, DynamicsWorkspace& work);
+
+}  // namespace obsgain

@@ -1,0 +1,51 @@
+// The lumped planar two-link family of the paper (Pendubot, Acrobot, fully actuated two-link arms) as data,
+// parameterised by π1..π5 (Zhang & Tarn), and its dynamics as templates on the scalar: the same code runs on
+// double, on intervals and on affine forms.
+#pragma once
+
+#include <Eigen/Core>
+
+#include <array>
+#include <cmath>
+
+namespace obsgain {
+
+struct Planar2RParameters {
+  std::array<double, 5> pi{};  // π1..π5
+  double g0 = 9.81;
+  std::array<double, 2> armature{};  // reflected rotor inertias, added to M's diagonal
+};
+
+// M(q) depends on q2 only.
+template <class Scalar>
+Eigen::Matrix<Scalar, 2, 2> planar_2r_mass_matrix(const Planar2RParameters& p, const Scalar& q2) {
+  using std::cos;
+  const Scalar c2 = cos(q2);
+  const Scalar off = p.pi[1] + p.pi[2] * c2;
+  Eigen::Matrix<Scalar, 2, 2> M;
+  M << p.pi[0] + p.pi[1] + p.armature[0] + 2.0 * p.pi[2] * c2, off, off, Scalar(p.pi[1] + p.armature[1]);
+  return M;
+}
+
+// N_1, N_2 with A_i = vᵀ N_i v: A_1 = -π3 sin q2 (2 v1 v2 + v2²), A_2 = π3 sin q2 v1².
+template <class Scalar>
+std::array<Eigen::Matrix<Scalar, 2, 2>, 2> planar_2r_coriolis_tensors(const Planar2RParameters& p, const Scalar& q2) {
+  using std::sin;
+  const Scalar h = p.pi[2] * sin(q2);
+  const Scalar zero(0.0);
+  Eigen::Matrix<Scalar, 2, 2> N1, N2;
+  N1 << zero, -h, -h, -h;
+  N2 << h, zero, zero, zero;
+  return {N1, N2};
+}
+
+template <class Scalar>
+Eigen::Matrix<Scalar, 2, 1> planar_2r_gravity(const Planar2RParameters& p, const Scalar& q1, const Scalar& q2) {
+  using std::cos;
+  const Scalar c12 = cos(q1 + q2);
+  Eigen::Matrix<Scalar, 2, 1> g;
+  g << p.pi[3] * p.g0 * cos(q1) + p.pi[4] * p.g0 * c12, p.pi[4] * p.g0 * c12;
+  return g;
+}
+
+}  // namespace obsgain

@@ -1,0 +1,47 @@
+// Any serial chain as plain data: joint placements and axes, lumped rigid bodies, armature. The URDF reader
+// only fills it; the dynamics are templates over it (chain_dynamics.hpp).
+#pragma once
+
+#include "obsgain/model/joint.hpp"
+
+#include <Eigen/Dense>
+
+#include <string>
+#include <vector>
+
+namespace obsgain {
+
+inline constexpr int kMaxChainJoints = 16;  // fixed-size scratch: the dynamics allocate nothing
+
+struct ChainJoint {
+  std::string name;
+  JointType type = JointType::revolute;
+  // Placement of the joint frame in the previous body's frame (the base frame for the first joint).
+  Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d translation = Eigen::Vector3d::Zero();
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();  // unit, in the joint frame
+};
+
+// A rigid body in the frame of the joint that moves it: mass, centre of mass, inertia about the centre of mass.
+struct RigidBody {
+  double mass = 0.0;
+  Eigen::Vector3d com = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d inertia = Eigen::Matrix3d::Zero();
+};
+
+// Body i moves with joint i; body i's frame is joint i's frame displaced by q_i. M(q) gets armature_i (the
+// reflected rotor inertia, gear ratio² × rotor inertia) on its diagonal.
+struct SerialChain {
+  std::vector<ChainJoint> joints;
+  std::vector<RigidBody> bodies;
+  Eigen::VectorXd armature;
+  Eigen::Vector3d gravity = Eigen::Vector3d(0.0, 0.0, -9.81);  // in the base frame
+  int dof() const { return static_cast<int>(joints.size()); }
+};
+
+// A proven lower bound of λmin(M(q)) for every q. M is the bodies' kinetic-energy matrix, positive semidefinite
+// for every q (a sum of Jᵀ m J + Jᵀ I J with m >= 0, I ⪰ 0), plus diag(armature): λmin(M) >= min_i armature_i,
+// less what rounding in the lumped inertias may have taken (docs/theory.md, "M⁻¹ over a box").
+double chain_inertia_floor(const SerialChain& chain);
+
+}  // namespace obsgain

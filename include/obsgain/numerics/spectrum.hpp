@@ -1,0 +1,17 @@
+// Proven bounds of a symmetric matrix's extreme eigenvalues, the matrix given exactly in floating point. The
+// eigensolver is backward stable: its eigenvalues are exact for a matrix within a small multiple of n ε ||S|| of
+// S, far below the relative pad kEigenPad for the sizes obsgain handles (n <= 32; docs/theory.md, "The constants").
+#pragma once
+
+#include <Eigen/Dense>
+
+namespace obsgain {
+
+inline constexpr double kEigenPad = 1e-12;
+
+double largest_eigenvalue_upper(const Eigen::MatrixXd& S);
+double smallest_eigenvalue_lower(const Eigen::MatrixXd& S);
+// ||B||₂, from the symmetric dilation [[0, B], [Bᵀ, 0]].
+double spectral_norm_upper(const Eigen::MatrixXd& B);
+
+}  // namespace obsgain

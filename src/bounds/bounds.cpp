@@ -1,0 +1,334 @@
+#include "obsgain/bounds/bounds.hpp"
+
+#include "obsgain/model/dynamics.hpp"
+#include "obsgain/numerics/optimize.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <functional>
+#include <numbers>
+#include <random>
+#include <sstream>
+
+namespace obsgain {
+
+namespace {
+
+// The (q, discrete choice) structure shared by the three bounds: for each q, a finite family of smooth
+// functions f_c(q) (one per vertex / saturation pattern) whose maximum is the objective.
+struct BoundProblem {
+  // Evaluates max_c f_c(q); writes the maximising choice.
+  std::function<double(const Eigen::VectorXd& q, int& choice)> all_choices;
+  // Evaluates one f_c(q).
+  std::function<double(const Eigen::VectorXd& q, int choice)> one_choice;
+};
+
+struct SearchSpace {
+  std::vector<int> joints;  // the joints M and C depend on
+  Eigen::VectorXd lower, upper;
+  Eigen::VectorXd fixed_q;  // values of all joints outside the search
+};
+
+SearchSpace search_space(const Model& model) {
+  SearchSpace space;
+  space.joints = configuration_joints(model);
+  const int n = model.dof();
+  space.fixed_q = Eigen::VectorXd::Zero(n);
+  for (int i = 0; i < n; ++i) {
+    const JointDomain& joint = model.joints[i];
+    space.fixed_q(i) = joint.continuous ? 0.0 : 0.5 * (joint.lower + joint.upper);
+  }
+  const auto d = static_cast<Eigen::Index>(space.joints.size());
+  space.lower.resize(d);
+  space.upper.resize(d);
+  for (Eigen::Index k = 0; k < d; ++k) {
+    const JointDomain& joint = model.joints[space.joints[k]];
+    space.lower(k) = joint.continuous ? -std::numbers::pi : joint.lower;
+    space.upper(k) = joint.continuous ? std::numbers::pi : joint.upper;
+  }
+  return space;
+}
+
+Eigen::VectorXd full_configuration(const SearchSpace& space, const Eigen::VectorXd& x) {
+  Eigen::VectorXd q = space.fixed_q;
+  for (Eigen::Index k = 0; k < x.size(); ++k) q(space.joints[k]) = x(k);
+  return q;
+}
+
+// Continuous joints are periodic: report their argmax inside (-π, π].
+Eigen::VectorXd wrap_configuration(const Model& model, Eigen::VectorXd q) {
+  for (int i = 0; i < q.size(); ++i) {
+    if (model.joints[i].continuous) q(i) = std::remainder(q(i), 2.0 * std::numbers::pi);
+  }
+  return q;
+}
+
+[[noreturn]] void singular_inertia(const Model& model, const Eigen::VectorXd& q) {
+  std::ostringstream msg;
+  msg << "model '" << model.name << "': inertia matrix M(q) is singular or indefinite at q = ("
+      << q.transpose().format(Eigen::IOFormat(6, Eigen::DontAlignCols, ", ", ", ")) << ")";
+  throw InputError(msg.str());
+}
+
+// Eigenvalues of M(q), refusing a numerically singular or indefinite M: the bounds would be meaningless.
+Eigen::VectorXd inertia_eigenvalues(const Model& model, const Eigen::VectorXd& q, Eigen::MatrixXd& M) {
+  M.resize(model.dof(), model.dof());
+  mass_matrix(model, q, M);
+  const Eigen::VectorXd lambda = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(M, Eigen::EigenvaluesOnly).eigenvalues();
+  if (!(lambda(0) > 1e-12 * lambda(lambda.size() - 1))) singular_inertia(model, q);
+  return lambda;
+}
+
+Eigen::LLT<Eigen::MatrixXd> factor_inertia(const Model& model, const Eigen::VectorXd& q) {
+  Eigen::MatrixXd M;
+  inertia_eigenvalues(model, q, M);
+  return Eigen::LLT<Eigen::MatrixXd>(M);
+}
+
+BoundMaximum search(const Model& model, const BoundProblem& problem, const BoundOptions& options) {
+  const SearchSpace space = search_space(model);
+  const auto d = static_cast<int>(space.joints.size());
+  BoundMaximum result;
+
+  const Objective objective = [&](const Eigen::VectorXd& x) {
+    int choice = 0;
+    return problem.all_choices(full_configuration(space, x), choice);
+  };
+  const OptimumPoint global = maximize_global(objective, space.lower, space.upper,
+                                              options.global_evaluations_per_dimension * std::max(d, 1));
+  result.global_value = global.value;
+  result.global_evaluations = global.evaluations;
+
+  // Polish starts: the global argmax, then the best points of a reproducible uniform sample.
+  std::vector<std::pair<double, Eigen::VectorXd>> starts{{global.value, global.x}};
+  std::mt19937_64 rng(20260101);
+  std::vector<std::pair<double, Eigen::VectorXd>> samples;
+  for (int s = 0; s < options.samples_per_dimension * std::max(d, 1); ++s) {
+    Eigen::VectorXd x(d);
+    for (int k = 0; k < d; ++k)
+      x(k) = std::uniform_real_distribution<double>(space.lower(k), space.upper(k))(rng);
+    samples.emplace_back(objective(x), x);
+  }
+  result.global_evaluations += static_cast<int>(samples.size());
+  std::sort(samples.begin(), samples.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+  for (const auto& sample : samples) {
+    if (static_cast<int>(starts.size()) >= options.polish_starts) break;
+    starts.push_back(sample);
+  }
+
+  result.polish_value = -std::numeric_limits<double>::infinity();
+  Eigen::VectorXd best_x = global.x;
+  for (const auto& [value, x0] : starts) {
+    int choice = 0;
+    problem.all_choices(full_configuration(space, x0), choice);
+    // Search a continuous joint one period around the start, so that a maximiser near ±π is interior.
+    Eigen::VectorXd lower = space.lower, upper = space.upper;
+    for (int k = 0; k < d; ++k) {
+      if (model.joints[space.joints[k]].continuous) {
+        lower(k) = x0(k) - std::numbers::pi;
+        upper(k) = x0(k) + std::numbers::pi;
+      }
+    }
+    const Objective smooth = [&](const Eigen::VectorXd& x) {
+      return problem.one_choice(full_configuration(space, x), choice);
+    };
+    const OptimumPoint polished = maximize_local(smooth, x0, lower, upper);
+    result.polish_evaluations += polished.evaluations;
+    int final_choice = 0;
+    const double confirmed = problem.all_choices(full_configuration(space, polished.x), final_choice);
+    if (confirmed > result.polish_value) {
+      result.polish_value = confirmed;
+      if (confirmed >= result.global_value) best_x = polished.x;
+    }
+  }
+  result.value = std::max(result.global_value, result.polish_value);
+  result.q = wrap_configuration(model, full_configuration(space, best_x));
+  return result;
+}
+
+// Index c of a vertex of the box: bit i set means w_i = +V_i.
+Eigen::VectorXd vertex(const Eigen::VectorXd& velocity_bounds, unsigned c) {
+  Eigen::VectorXd w(velocity_bounds.size());
+  for (Eigen::Index i = 0; i < w.size(); ++i) w(i) = ((c >> i) & 1u) ? velocity_bounds(i) : -velocity_bounds(i);
+  return w;
+}
+
+Eigen::VectorXd pattern(int n, unsigned c) {
+  Eigen::VectorXd D(n);
+  for (int i = 0; i < n; ++i) D(i) = ((c >> i) & 1u) ? 1.0 : 0.0;
+  return D;
+}
+
+// Tracks max λ_max(G) over a family of Gram matrices G = XᵀX without an eigensolver for most of them:
+// λ_max(G) <= ||G||_F, and λ_max(G) <= b² exactly when b² I - G is positive semidefinite (a Cholesky test).
+// Only a G that beats the running maximum is solved, so the result is the maximum to rounding.
+class LargestSingularValue {
+ public:
+  explicit LargestSingularValue(int n) : shifted_(n, n), llt_(n) {}
+
+  // Returns true (and raises the maximum) when ||X|| = sqrt(λ_max(G)) beats it.
+  bool offer(const Eigen::MatrixXd& G) {
+    if (best_squared_ >= 0.0) {
+      if (G.squaredNorm() <= best_squared_ * best_squared_) return false;
+      shifted_ = -G;
+      shifted_.diagonal().array() += best_squared_;
+      llt_.compute(shifted_);
+      if (llt_.info() == Eigen::Success) return false;
+    }
+    const double largest = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(G, Eigen::EigenvaluesOnly).eigenvalues().maxCoeff();
+    if (largest <= best_squared_) return false;
+    best_squared_ = largest;
+    return true;
+  }
+
+  double value() const { return std::sqrt(std::max(best_squared_, 0.0)); }
+
+ private:
+  double best_squared_ = -1.0;
+  Eigen::MatrixXd shifted_;
+  Eigen::LLT<Eigen::MatrixXd> llt_;
+};
+
+
+// J(q, -w) = -J(q, w): the vertices with w_n < 0 (bit n-1 clear) repeat the others for ||J||, and for
+// ||M⁻¹(J D + F)|| too when F = 0.
+double coriolis_jacobian_maximum(const Model& model, const Eigen::VectorXd& q, const Eigen::VectorXd& velocity_bounds,
+                                 int& choice) {
+  const int n = model.dof();
+  const unsigned vertex_count = 1u << n;
+  std::vector<Eigen::MatrixXd> N;
+  coriolis_tensors(model, q, N);
+  LargestSingularValue largest(n);
+  Eigen::MatrixXd J(n, n), G(n, n);
+  for (unsigned c = vertex_count / 2; c < vertex_count; ++c) {
+    J = coriolis_jacobian(N, vertex(velocity_bounds, c));
+    G.noalias() = J.transpose() * J;
+    if (largest.offer(G)) choice = static_cast<int>(c);
+  }
+  return largest.value();
+}
+
+// Choices for L_joint: vertex index in the low n bits, saturation pattern in the next n bits. With
+// X = A D + R, A = M⁻¹J, R = M⁻¹F: XᵀX = D AᵀA D + D AᵀR + RᵀA D + RᵀR, so each of the 2^n patterns costs
+// O(n²) once the three Gram blocks of a vertex are formed.
+double joint_lipschitz_maximum(const Model& model, const Eigen::VectorXd& q, const Eigen::VectorXd& velocity_bounds,
+                               int& choice) {
+  const int n = model.dof();
+  const unsigned vertex_count = 1u << n;
+  const unsigned first_vertex = model.friction.isZero(0.0) ? vertex_count / 2 : 0u;
+  std::vector<Eigen::MatrixXd> N;
+  coriolis_tensors(model, q, N);
+  const Eigen::LLT<Eigen::MatrixXd> llt = factor_inertia(model, q);
+  const Eigen::MatrixXd R = llt.solve(model.friction);
+  const Eigen::MatrixXd RR = R.transpose() * R;
+  LargestSingularValue largest(n);
+  Eigen::MatrixXd A(n, n), AA(n, n), AR(n, n), G(n, n);
+  for (unsigned c = first_vertex; c < vertex_count; ++c) {
+    A = llt.solve(coriolis_jacobian(N, vertex(velocity_bounds, c)));
+    AA.noalias() = A.transpose() * A;
+    AR.noalias() = A.transpose() * R;
+    // Full patterns first: they usually win, and a high running maximum prunes the rest.
+    for (unsigned s = vertex_count; s-- > 0;) {
+      for (int j = 0; j < n; ++j) {
+        const bool dj = (s >> j) & 1u;
+        for (int i = 0; i < n; ++i) {
+          const bool di = (s >> i) & 1u;
+          G(i, j) = RR(i, j) + (di && dj ? AA(i, j) : 0.0) + (di ? AR(i, j) : 0.0) + (dj ? AR(j, i) : 0.0);
+        }
+      }
+      if (largest.offer(G)) choice = static_cast<int>(c | (s << n));
+    }
+  }
+  return largest.value();
+}
+
+}  // namespace
+
+Eigen::MatrixXd box_vertices(const Eigen::VectorXd& velocity_bounds) {
+  const auto n = velocity_bounds.size();
+  Eigen::MatrixXd vertices(n, 1 << n);
+  for (unsigned c = 0; c < (1u << n); ++c) vertices.col(c) = vertex(velocity_bounds, c);
+  return vertices;
+}
+
+double inverse_inertia_norm(const Model& model, const Eigen::VectorXd& q) {
+  Eigen::MatrixXd M;
+  return 1.0 / inertia_eigenvalues(model, q, M)(0);
+}
+
+double coriolis_jacobian_norm(const Model& model, const Eigen::VectorXd& q, const Eigen::VectorXd& w) {
+  std::vector<Eigen::MatrixXd> N;
+  coriolis_tensors(model, q, N);
+  return coriolis_jacobian(N, w).operatorNorm();
+}
+
+double joint_lipschitz_norm(const Model& model, const Eigen::VectorXd& q, const Eigen::VectorXd& w,
+                            const Eigen::VectorXd& saturation_pattern) {
+  std::vector<Eigen::MatrixXd> N;
+  coriolis_tensors(model, q, N);
+  const Eigen::MatrixXd X = coriolis_jacobian(N, w) * saturation_pattern.asDiagonal() + model.friction;
+  return factor_inertia(model, q).solve(X).operatorNorm();
+}
+
+double max_coriolis_jacobian_norm(const Model& model, const Eigen::VectorXd& q, const Eigen::VectorXd& velocity_bounds) {
+  int choice = 0;
+  return coriolis_jacobian_maximum(model, q, velocity_bounds, choice);
+}
+
+double max_joint_lipschitz_norm(const Model& model, const Eigen::VectorXd& q, const Eigen::VectorXd& velocity_bounds) {
+  int choice = 0;
+  return joint_lipschitz_maximum(model, q, velocity_bounds, choice);
+}
+
+BoundReport compute_bounds(const Model& model, const Eigen::VectorXd& velocity_bounds, const BoundOptions& options) {
+  validate_velocity_bounds(model, velocity_bounds);
+  const auto start = std::chrono::steady_clock::now();
+  const int n = model.dof();
+  const unsigned vertex_count = 1u << n;
+
+  BoundReport report;
+  report.velocity_bounds = velocity_bounds;
+  report.F_norm = model.friction.operatorNorm();
+
+  BoundProblem m0;
+  m0.all_choices = [&](const Eigen::VectorXd& q, int& choice) {
+    choice = 0;
+    return inverse_inertia_norm(model, q);
+  };
+  m0.one_choice = [&](const Eigen::VectorXd& q, int) { return inverse_inertia_norm(model, q); };
+  report.M0 = search(model, m0, options);
+
+  BoundProblem b;
+  b.all_choices = [&](const Eigen::VectorXd& q, int& choice) { return coriolis_jacobian_maximum(model, q, velocity_bounds, choice); };
+  b.one_choice = [&](const Eigen::VectorXd& q, int c) {
+    return coriolis_jacobian_norm(model, q, vertex(velocity_bounds, static_cast<unsigned>(c)));
+  };
+  report.B = search(model, b, options);
+  {
+    int choice = 0;
+    b.all_choices(report.B.q, choice);
+    report.B.velocity_vertex = vertex(velocity_bounds, static_cast<unsigned>(choice));
+  }
+
+  BoundProblem lj;
+  lj.all_choices = [&](const Eigen::VectorXd& q, int& choice) { return joint_lipschitz_maximum(model, q, velocity_bounds, choice); };
+  lj.one_choice = [&](const Eigen::VectorXd& q, int choice) {
+    const auto c = static_cast<unsigned>(choice);
+    return joint_lipschitz_norm(model, q, vertex(velocity_bounds, c & (vertex_count - 1)), pattern(n, c >> n));
+  };
+  report.L_joint = search(model, lj, options);
+  {
+    int choice = 0;
+    lj.all_choices(report.L_joint.q, choice);
+    const auto c = static_cast<unsigned>(choice);
+    report.L_joint.velocity_vertex = vertex(velocity_bounds, c & (vertex_count - 1));
+    report.L_joint.saturation_pattern = pattern(n, c >> n);
+  }
+
+  report.L_paper = report.M0.value * (report.B.value + report.F_norm);
+  report.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return report;
+}
+
+}  // namespace obsgain

@@ -1,0 +1,242 @@
+#include "obsgain/design/design.hpp"
+
+#include "obsgain/bounds/certified_bounds.hpp"
+#include "obsgain/certificate/certificate.hpp"
+#include "obsgain/model/dynamics.hpp"
+#include "obsgain/numerics/optimize.hpp"
+
+#include <fmt/format.h>
+
+#include <chrono>
+#include <cmath>
+
+namespace obsgain {
+
+namespace {
+
+// The admissible ranges: wide enough for any robot and observer that can be built, narrow enough that the
+// certificates' arithmetic (θ², L θ, bisections over θ) stays finite and terminates.
+void require_in(const char* name, double value, double lower, double upper) {
+  if (!std::isfinite(value) || value < lower || value > upper || value <= 0.0)
+    throw InputError(fmt::format("--{} = {} must lie in [{:g}, {:g}]", name, value, lower, upper));
+}
+
+// β = 1, minimise objective(α) over α ∈ [1e-2, 1e2] (searched in log α): DIRECT-L, then Ipopt.
+ShapeReport optimize_alpha(const std::string& name, const std::function<double(double)>& objective) {
+  ShapeReport shape;
+  shape.optimized = true;
+  shape.objective = name;
+  const Objective negated = [&](const Eigen::VectorXd& x) { return -objective(std::exp(x(0))); };
+  const Eigen::VectorXd lower = Eigen::VectorXd::Constant(1, std::log(1e-2));
+  const Eigen::VectorXd upper = Eigen::VectorXd::Constant(1, std::log(1e2));
+  const OptimumPoint global = maximize_global(negated, lower, upper, 400);
+  const OptimumPoint polish = maximize_local(negated, global.x, lower, upper);
+  shape.alpha_global = std::exp(global.x(0));
+  shape.objective_global = -global.value;
+  shape.alpha_polish = std::exp(polish.x(0));
+  shape.objective_polish = -polish.value;
+  shape.evaluations = global.evaluations + polish.evaluations;
+  return shape;
+}
+
+// The observer at gain θ of the design's shape, before anything is certified about it.
+CertifiedObserver observer_at(const Design& d, CertificateKind kind, double theta) {
+  CertifiedObserver o;
+  o.certificate = kind;
+  o.alpha = d.alpha;
+  o.beta = d.beta;
+  o.theta = theta;
+  o.k1 = theta * d.alpha;
+  o.k2 = theta * theta * d.beta;
+  o.L = d.L_used;
+  o.velocity_bounds = d.velocity_bounds;
+  o.P = Eigen::MatrixXd::Zero(2 * d.dof, 2 * d.dof);
+  return o;
+}
+
+CertificateSummary paper_summary(const Design& d, std::optional<double> target, std::optional<double> theta) {
+  CertificateSummary s;
+  const double S_norm = d.lyapunov.S_norm;
+  s.theta_star = paper_theta_star(S_norm, target.value_or(0.0), d.L_used);
+  s.observer = observer_at(d, CertificateKind::paper, target ? s.theta_star : *theta);
+  s.rate = target ? *target : paper_rate(S_norm, s.observer.theta, d.L_used);
+  const Eigen::Matrix2d P2 = paper_certificate_matrix(d.lyapunov.S2, s.observer.theta);
+  s.observer.gamma = s.rate;
+  s.observer.P = per_joint_matrix(P2, d.dof);
+  s.observer.k = envelope_constant(P2);
+  s.observer.certified = s.rate > 0.0;
+  return s;
+}
+
+CertificateSummary tight_summary(const Design& d, std::optional<double> target, std::optional<double> theta) {
+  CertificateSummary s;
+  const double m = d.rate_margin;
+  s.theta_star = tight_theta_star(d.alpha, d.beta, target.value_or(0.0), d.L_used);
+  s.observer = observer_at(d, CertificateKind::tight,
+                           target ? tight_theta_star(d.alpha, d.beta, *target / (1.0 - m), d.L_used) : *theta);
+  CertifiedObserver& o = s.observer;
+  s.rate = tight_rate(o.k1, o.k2, d.L_used);
+  o.gamma = target ? *target : s.rate - m * std::abs(s.rate);
+  const RiccatiCertificate cert = tight_certificate(o.k1, o.k2, d.L_used, o.gamma);
+  if (cert.exists) {
+    o.P = per_joint_matrix(cert.P, d.dof);
+    o.k = cert.k;
+    s.lmi_max_eig = cert.lmi_max_eig;
+  }
+  o.certified = cert.exists && o.gamma > 0.0;
+  return s;
+}
+
+}  // namespace
+
+const char* to_string(LipschitzKind kind) { return kind == LipschitzKind::paper ? "paper" : "joint"; }
+
+void validate_design_options(const DesignOptions& options) {
+  if (options.gamma.has_value() == options.theta.has_value())
+    throw InputError("give exactly one of --gamma (target rate) and --theta (gain to evaluate)");
+  if (options.gamma) require_in("gamma", *options.gamma, 1e-9, 1e6);
+  if (options.theta) require_in("theta", *options.theta, 1e-6, 1e8);
+  if (!options.optimize_shape) {
+    require_in("alpha", options.alpha, 1e-6, 1e6);
+    require_in("beta", options.beta, 1e-6, 1e6);
+  }
+  if (options.L_override) require_in("L", *options.L_override, 1e-12, 1e12);
+  const double budget = options.certified_bounds.budget_seconds;
+  if (!std::isfinite(budget) || budget < 0.0 || budget > 1e6)
+    throw InputError(fmt::format("--bound-budget = {} must lie in [0, 1e6] seconds (0: until the gap is reached)", budget));
+  if (!std::isfinite(options.rate_margin) || options.rate_margin <= 0.0 || options.rate_margin >= 0.5)
+    throw InputError(fmt::format("rate margin = {} must lie in (0, 0.5)", options.rate_margin));
+}
+
+Design design_from_bounds(const Model& model, const BoundReport& bounds, const DesignOptions& options) {
+  validate_design_options(options);
+  Design d;
+  d.robot_name = model.name;
+  d.robot_source = model.source;
+  d.dof = model.dof();
+  d.notes = model.notes;
+  d.armature = armature(model);
+  d.robot_fingerprint = model.fingerprint;
+  d.velocity_bounds = bounds.velocity_bounds;
+  d.bounds = bounds;
+  d.certificate = options.certificate;
+  d.target_gamma = options.gamma;
+  d.rate_margin = options.rate_margin;
+
+  const double L_computed = options.lipschitz == LipschitzKind::joint ? bounds.L_joint.value : bounds.L_paper;
+  if (!options.L_override && !std::isfinite(L_computed))
+    throw InputError(fmt::format("L_{} has no finite proven upper bound yet after the bound budget of {} s: raise "
+                                 "--bound-budget (0: no limit)",
+                                 to_string(options.lipschitz), options.certified_bounds.budget_seconds));
+  d.L_used = options.L_override.value_or(L_computed);
+  d.L_source = options.L_override ? "override" : to_string(options.lipschitz);
+  if (options.L_override) {
+    d.warnings.push_back(fmt::format("L overridden by the user: {} (the model gives L_joint = {:.6g}, L_paper = {:.6g})",
+                                     d.L_used, bounds.L_joint.value, bounds.L_paper));
+    if (d.L_used < bounds.L_joint.value)
+      d.warnings.push_back("the overriding L is below the model's L_joint: the certificate rests on the user's L, "
+                           "not on the model");
+  }
+  for (const auto* bound : {&bounds.M0, &bounds.B, &bounds.L_joint}) {
+    if (std::abs(bound->global_value - bound->polish_value) > 1e-6 * std::max(bound->global_value, bound->polish_value))
+      d.warnings.push_back(fmt::format("bound search: NLopt ({:.10g}) and Ipopt ({:.10g}) disagree beyond 1e-6",
+                                       bound->global_value, bound->polish_value));
+  }
+
+  d.alpha = options.alpha;
+  d.beta = options.beta;
+  if (options.optimize_shape) {
+    d.beta = 1.0;
+    if (options.certificate == CertificateKind::paper) {
+      d.shape = optimize_alpha("S_norm", [](double a) { return observer_lyapunov(a, 1.0, 1).S_norm; });
+    } else if (options.gamma) {
+      d.shape = optimize_alpha("theta_star", [&](double a) { return tight_theta_star(a, 1.0, *options.gamma, d.L_used); });
+    } else {
+      d.shape = optimize_alpha("-gamma", [&](double a) {
+        return -tight_rate(*options.theta * a, *options.theta * *options.theta, d.L_used);
+      });
+    }
+    const bool polish_better = d.shape.objective_polish <= d.shape.objective_global;
+    d.alpha = polish_better ? d.shape.alpha_polish : d.shape.alpha_global;
+    const double scale = std::max(1.0, std::abs(d.shape.objective_global));
+    if (std::abs(d.shape.objective_global - d.shape.objective_polish) > 1e-6 * scale)
+      d.warnings.push_back("shape optimisation: NLopt and Ipopt disagree beyond 1e-6");
+  }
+  d.lyapunov = observer_lyapunov(d.alpha, d.beta, d.dof);
+
+  d.paper = paper_summary(d, options.gamma, options.theta);
+  d.tight = tight_summary(d, options.gamma, options.theta);
+
+  // Both certificates use L alone: proven bounds, or the user's own L, make the certificate a proof.
+  if (!bounds.certified && !options.L_override) {
+    d.not_proven_reason = options.bound_method == BoundMethod::numeric
+                              ? "numeric bounds (--bounds numeric) are lower estimates of the suprema, not proven"
+                              : "numeric bounds: " + certification_unavailable(model) + ", so its suprema are estimates";
+  }
+  const CertificateSummary& s = d.selected();
+  if (!s.observer.certified && s.rate > 0.0) {
+    d.warnings.push_back(fmt::format("theta = {:.6g}: the {} certificate's rate {:.6g} is positive, but no certificate "
+                                     "matrix P was found at the envelope rate {:.6g} (the Riccati solve fails at these "
+                                     "extreme gains): nothing is certified",
+                                     s.observer.theta, to_string(d.certificate), s.rate, s.observer.gamma));
+  } else if (!s.observer.certified) {
+    d.warnings.push_back(fmt::format("theta = {:.6g} certifies no exponential rate with the {} certificate (gamma = {:.6g})",
+                                     s.observer.theta, to_string(d.certificate), s.rate));
+  }
+  return d;
+}
+
+BoundReport design_bounds(const Model& model, const Eigen::VectorXd& V, const DesignOptions& options,
+                          std::vector<std::string>& warnings) {
+  const auto phase = [&](const std::string& text) {
+    if (options.progress) options.progress(text);
+  };
+  phase(fmt::format("bounds: numeric search over {} joints (NLopt DIRECT-L, then Ipopt)", configuration_joints(model).size()));
+  BoundReport bounds = compute_bounds(model, V, options.bounds);
+  if (options.bound_method == BoundMethod::certified) {
+    phase(options.certified_bounds.budget_seconds > 0.0
+              ? fmt::format("bounds: interval branch and bound, budget {:g} s (--bound-budget)",
+                            options.certified_bounds.budget_seconds)
+              : std::string("bounds: interval branch and bound until the 1e-6 gap (no budget)"));
+    if (const auto certified = certify_bounds(model, bounds, options.certified_bounds)) {
+      apply_certified_bounds(bounds, *certified);
+    } else {
+      warnings.push_back(certification_unavailable(model) +
+                         ": numeric bounds used (lower estimates of the suprema); the design is not proven");
+    }
+  }
+  return bounds;
+}
+
+std::string unmet_request(const Design& d, const DesignOptions& options) {
+  if (!options.gamma) return {};
+  if (!d.selected().observer.certified) return fmt::format("the design does not certify gamma = {}", *options.gamma);
+  if (!d.proven() && options.bound_method == BoundMethod::certified)
+    return fmt::format("gamma = {} is not certified: {} (--bounds numeric accepts an estimate)", *options.gamma,
+                       d.not_proven_reason);
+  return {};
+}
+
+Eigen::VectorXd requested_velocity_bounds(const Model& model, const DesignOptions& options) {
+  const Eigen::VectorXd V = options.velocity_bounds.size() ? options.velocity_bounds : model.velocity_bounds;
+  if (V.size() == 0)
+    throw InputError("model '" + model.name + "' gives no velocity bounds" +
+                     (model.missing_velocity_bounds.empty() ? "" : " (" + model.missing_velocity_bounds + ")") +
+                     ": pass --vmax V1,...,Vn");
+  validate_velocity_bounds(model, V);
+  return V;
+}
+
+Design design_gains(const Model& model, const DesignOptions& options) {
+  validate_design_options(options);
+  const auto start = std::chrono::steady_clock::now();
+  const Eigen::VectorXd V = requested_velocity_bounds(model, options);
+  std::vector<std::string> warnings;
+  const BoundReport bounds = design_bounds(model, V, options, warnings);
+  Design d = design_from_bounds(model, bounds, options);
+  d.warnings.insert(d.warnings.begin(), warnings.begin(), warnings.end());
+  d.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return d;
+}
+
+}  // namespace obsgain

@@ -1,0 +1,201 @@
+#include "obsgain/numerics/optimize.hpp"
+
+#include <coin/IpIpoptApplication.hpp>
+#include <coin/IpTNLP.hpp>
+#include <nlopt.hpp>
+
+#include <cmath>
+#include <exception>
+#include <limits>
+#include <sstream>
+#include <vector>
+
+namespace obsgain {
+
+namespace {
+
+// NLopt and Ipopt swallow exceptions thrown by the objective: keep the first one and rethrow it after the
+// optimiser returns, so that an InputError (a singular inertia matrix, say) reaches the user intact.
+struct GlobalData {
+  const Objective* f;
+  OptimumPoint best;
+  std::exception_ptr error;
+};
+
+double nlopt_objective(const std::vector<double>& x, std::vector<double>& /*grad*/, void* data) {
+  auto* d = static_cast<GlobalData*>(data);
+  const Eigen::VectorXd point = Eigen::Map<const Eigen::VectorXd>(x.data(), static_cast<Eigen::Index>(x.size()));
+  double value = 0.0;
+  try {
+    value = (*d->f)(point);
+  } catch (...) {
+    d->error = std::current_exception();
+    throw nlopt::forced_stop();
+  }
+  ++d->best.evaluations;
+  if (std::isfinite(value) && value > d->best.value) {
+    d->best.value = value;
+    d->best.x = point;
+  }
+  return std::isfinite(value) ? value : -std::numeric_limits<double>::max();
+}
+
+// Minimises -f; keeps the best point seen so that a premature Ipopt stop still returns a valid maximum.
+class PolishProblem final : public Ipopt::TNLP {
+ public:
+  PolishProblem(const Objective& f, const Eigen::VectorXd& x0, const Eigen::VectorXd& lower,
+                const Eigen::VectorXd& upper)
+      : f_(f), x0_(x0), lower_(lower), upper_(upper) {
+    best_.x = x0;
+    best_.value = -std::numeric_limits<double>::infinity();
+    evaluate(x0);
+  }
+
+  const OptimumPoint& best() const { return best_; }
+  const std::exception_ptr& error() const { return error_; }
+
+  bool get_nlp_info(Ipopt::Index& n, Ipopt::Index& m, Ipopt::Index& nnz_jac_g, Ipopt::Index& nnz_h_lag,
+                    IndexStyleEnum& index_style) override {
+    n = static_cast<Ipopt::Index>(x0_.size());
+    m = 0;
+    nnz_jac_g = 0;
+    nnz_h_lag = 0;
+    index_style = C_STYLE;
+    return true;
+  }
+  bool get_bounds_info(Ipopt::Index n, Ipopt::Number* x_l, Ipopt::Number* x_u, Ipopt::Index, Ipopt::Number*,
+                       Ipopt::Number*) override {
+    for (Ipopt::Index i = 0; i < n; ++i) {
+      x_l[i] = lower_(i);
+      x_u[i] = upper_(i);
+    }
+    return true;
+  }
+  bool get_starting_point(Ipopt::Index n, bool, Ipopt::Number* x, bool, Ipopt::Number*, Ipopt::Number*,
+                          Ipopt::Index, bool, Ipopt::Number*) override {
+    for (Ipopt::Index i = 0; i < n; ++i) x[i] = x0_(i);
+    return true;
+  }
+  bool eval_f(Ipopt::Index n, const Ipopt::Number* x, bool, Ipopt::Number& obj_value) override {
+    const double value = evaluate(Eigen::Map<const Eigen::VectorXd>(x, n));
+    if (!std::isfinite(value)) return false;
+    obj_value = -value;
+    return true;
+  }
+  bool eval_grad_f(Ipopt::Index n, const Ipopt::Number* x, bool, Ipopt::Number* grad_f) override {
+    Eigen::VectorXd point = Eigen::Map<const Eigen::VectorXd>(x, n);
+    for (Ipopt::Index i = 0; i < n; ++i) {
+      const double h = 1e-6 * std::max(1.0, std::abs(point(i)));
+      const double xi = point(i);
+      point(i) = xi + h;
+      const double forward = evaluate(point);
+      point(i) = xi - h;
+      const double backward = evaluate(point);
+      point(i) = xi;
+      if (!std::isfinite(forward) || !std::isfinite(backward)) return false;
+      grad_f[i] = -(forward - backward) / (2.0 * h);
+    }
+    return true;
+  }
+  bool eval_g(Ipopt::Index, const Ipopt::Number*, bool, Ipopt::Index, Ipopt::Number*) override { return true; }
+  bool eval_jac_g(Ipopt::Index, const Ipopt::Number*, bool, Ipopt::Index, Ipopt::Index, Ipopt::Index*,
+                  Ipopt::Index*, Ipopt::Number*) override {
+    return true;
+  }
+  void finalize_solution(Ipopt::SolverReturn, Ipopt::Index, const Ipopt::Number*, const Ipopt::Number*,
+                         const Ipopt::Number*, Ipopt::Index, const Ipopt::Number*, const Ipopt::Number*, Ipopt::Number,
+                         const Ipopt::IpoptData*, Ipopt::IpoptCalculatedQuantities*) override {}
+
+ private:
+  double evaluate(const Eigen::VectorXd& x) {
+    if (error_) return std::numeric_limits<double>::quiet_NaN();
+    double value = 0.0;
+    try {
+      value = f_(x);
+    } catch (...) {
+      error_ = std::current_exception();
+      return std::numeric_limits<double>::quiet_NaN();
+    }
+    ++best_.evaluations;
+    if (std::isfinite(value) && value > best_.value && (x.array() >= lower_.array()).all() &&
+        (x.array() <= upper_.array()).all()) {
+      best_.value = value;
+      best_.x = x;
+    }
+    return value;
+  }
+
+  const Objective& f_;
+  Eigen::VectorXd x0_, lower_, upper_;
+  OptimumPoint best_;
+  std::exception_ptr error_;
+};
+
+}  // namespace
+
+OptimumPoint maximize_global(const Objective& f, const Eigen::VectorXd& lower, const Eigen::VectorXd& upper,
+                             int max_evaluations) {
+  const auto n = static_cast<unsigned>(lower.size());
+  GlobalData data{&f, {}, nullptr};
+  data.best.value = -std::numeric_limits<double>::infinity();
+  nlopt::opt opt(nlopt::GN_DIRECT_L, n);
+  opt.set_lower_bounds(std::vector<double>(lower.data(), lower.data() + n));
+  opt.set_upper_bounds(std::vector<double>(upper.data(), upper.data() + n));
+  opt.set_max_objective(nlopt_objective, &data);
+  opt.set_maxeval(max_evaluations);
+  opt.set_xtol_abs(1e-12);
+  std::vector<double> x(n);
+  for (unsigned i = 0; i < n; ++i) x[i] = 0.5 * (lower(i) + upper(i));
+  double value = 0.0;
+  try {
+    opt.optimize(x, value);
+  } catch (const nlopt::roundoff_limited&) {
+    // DIRECT ran into rounding at a converged point: the best point found so far is the answer.
+  } catch (const nlopt::forced_stop&) {
+  }
+  if (data.error) std::rethrow_exception(data.error);
+  return data.best;
+}
+
+ScalarOptimum minimize_golden(const std::function<double(double)>& f, double lower, double upper, double tolerance,
+                              int max_iterations) {
+  const double ratio = (std::sqrt(5.0) - 1.0) / 2.0;
+  ScalarOptimum best{lower, std::numeric_limits<double>::infinity(), 0};
+  const auto evaluate = [&](double x) {
+    const double value = f(x);
+    ++best.evaluations;
+    if (value < best.value) best = {x, value, best.evaluations};
+    return value;
+  };
+  double lo = lower, hi = upper;
+  double a = hi - ratio * (hi - lo), b = lo + ratio * (hi - lo);
+  double fa = evaluate(a), fb = evaluate(b);
+  for (int i = 0; i < max_iterations && hi - lo > tolerance; ++i) {
+    if (fa <= fb) {
+      hi = b, b = a, fb = fa;
+      a = hi - ratio * (hi - lo), fa = evaluate(a);
+    } else {
+      lo = a, a = b, fa = fb;
+      b = lo + ratio * (hi - lo), fb = evaluate(b);
+    }
+  }
+  return best;
+}
+
+OptimumPoint maximize_local(const Objective& f, const Eigen::VectorXd& x0, const Eigen::VectorXd& lower,
+                            const Eigen::VectorXd& upper) {
+  Ipopt::SmartPtr<PolishProblem> problem = new PolishProblem(f, x0, lower, upper);
+  Ipopt::SmartPtr<Ipopt::IpoptApplication> app = IpoptApplicationFactory();
+  app->Options()->SetIntegerValue("print_level", 0);
+  app->Options()->SetStringValue("sb", "yes");
+  app->Options()->SetStringValue("hessian_approximation", "limited-memory");
+  app->Options()->SetNumericValue("tol", 1e-11);
+  app->Options()->SetNumericValue("bound_relax_factor", 0.0);
+  app->Options()->SetIntegerValue("max_iter", 200);
+  std::istringstream no_option_file;  // never read an ipopt.opt from the user's working directory
+  if (app->Initialize(no_option_file) == Ipopt::Solve_Succeeded) app->OptimizeTNLP(problem);
+  if (problem->error()) std::rethrow_exception(problem->error());
+  return problem->best();
+}
+
+}  // namespace obsgain

@@ -1,0 +1,118 @@
+#include "obsgain/report/design_file.hpp"
+
+#include "obsgain/deployment/deployment.hpp"
+#include "json.hpp"
+
+namespace obsgain {
+
+namespace {
+
+RobotSource robot_source(const nlohmann::json& robot) {
+  RobotSource source;
+  source.robot = robot.at("source").get<std::string>();
+  source.base_link = robot.value("base_link", "");
+  source.tip_link = robot.value("tip_link", "");
+  source.actuated = robot.value("actuated", std::vector<int>{});
+  if (robot.contains("joint_limits")) {
+    for (const nlohmann::json& range : robot.at("joint_limits")) {
+      JointDomain domain;
+      if (range != "c") {
+        domain.continuous = false;
+        domain.lower = range.at(0).get<double>();
+        domain.upper = range.at(1).get<double>();
+      }
+      source.joint_limits.push_back(domain);
+    }
+  }
+  // The armature the design used, given again: a file whose transmissions changed still gets these values.
+  if (source.robot.ends_with(".urdf") || source.robot.ends_with(".json"))
+    source.armature = robot.value("armature", std::vector<double>{});
+  return source;
+}
+
+Eigen::VectorXd vector_of(const nlohmann::json& values, Eigen::Index size, const std::string& name) {
+  const auto v = values.get<std::vector<double>>();
+  if (size >= 0 && static_cast<Eigen::Index>(v.size()) != size) throw InputError(name + " needs one value per joint");
+  return Eigen::Map<const Eigen::VectorXd>(v.data(), static_cast<Eigen::Index>(v.size()));
+}
+
+CertifiedObserver certified_observer(const nlohmann::json& j, const Eigen::VectorXd& V) {
+  const nlohmann::json& d = j.at("design");
+  if (!d.at("certified").get<bool>()) throw InputError("the saved design is not certified: nothing to validate");
+  CertifiedObserver o;
+  const std::string kind = d.value("certificate", j.value("certificate", "tight"));
+  o.certificate = kind == "paper" ? CertificateKind::paper : kind == "polytopic" ? CertificateKind::polytopic : CertificateKind::tight;
+  o.alpha = d.at("alpha").get<double>();
+  o.beta = d.at("beta").get<double>();
+  o.theta = d.at("theta").get<double>();
+  o.k1 = d.at("k1").get<double>();
+  o.k2 = d.at("k2").get<double>();
+  o.gamma = d.at("envelope_gamma").get<double>();
+  o.k = d.at("k").get<double>();
+  o.L = j.at("bounds").at("L_used").get<double>();
+  o.velocity_bounds = V;
+  o.certified = true;
+  const auto P = d.at("P").get<std::vector<std::vector<double>>>();
+  const auto size = static_cast<std::size_t>(2 * V.size());
+  if (P.size() != size) throw InputError("design.P must be " + std::to_string(size) + " x " + std::to_string(size));
+  o.P.resize(static_cast<Eigen::Index>(size), static_cast<Eigen::Index>(size));
+  for (std::size_t r = 0; r < size; ++r) {
+    if (P[r].size() != size) throw InputError("design.P must be square");
+    for (std::size_t c = 0; c < size; ++c) o.P(static_cast<Eigen::Index>(r), static_cast<Eigen::Index>(c)) = P[r][c];
+  }
+  return o;
+}
+
+SampledCertificate sampled_certificate(const nlohmann::json& dep, const CertifiedObserver& o) {
+  const Eigen::Index n = o.velocity_bounds.size();
+  SampledCertificate c;
+  c.sample_period = dep.at("sample_period").get<double>();
+  c.latency = dep.value("latency", 0.0);
+  c.encoder_resolution = vector_of(dep.at("encoder_resolution"), n, "deployment.encoder_resolution");
+  c.acceleration_bounds = vector_of(dep.at("acceleration_bounds"), n, "deployment.acceleration_bounds");
+  c.level = dep.at("iss_envelope").at("level").get<double>();
+  c.offset = dep.at("iss_envelope").at("offset").get<double>();
+  c.position_norm = dep.at("ultimate_position_error_norm").get<double>();
+  c.velocity_norm = dep.at("ultimate_velocity_error_norm").get<double>();
+  for (const double x : {o.L, c.level, c.offset})
+    if (!(x > 0.0) || !std::isfinite(x)) throw InputError("deployment: L_used, level and offset must be positive");
+  DeploymentOptions ranges;  // the ranges design-gains accepts
+  ranges.sample_period = c.sample_period;
+  ranges.latency = c.latency;
+  ranges.encoder_resolution = c.encoder_resolution;
+  ranges.acceleration_bounds = c.acceleration_bounds;
+  try {
+    validate_deployment_options(ranges, static_cast<int>(n));
+  } catch (const InputError& e) {
+    throw InputError(std::string("the design file's deployment: ") + e.what());
+  }
+  return c;
+}
+
+}  // namespace
+
+SavedDesign saved_design_from_json(const nlohmann::json& j) {
+  try {
+    SavedDesign saved;
+    saved.robot = robot_source(j.at("robot"));
+    saved.fingerprint = j.at("robot").value("fingerprint", "");
+    const Eigen::VectorXd V = vector_of(j.at("velocity_bounds"), -1, "velocity_bounds");
+    saved.certificate.observer = certified_observer(j, V);
+    if (j.contains("deployment")) saved.certificate.sampled = sampled_certificate(j.at("deployment"), saved.certificate.observer);
+    return saved;
+  } catch (const nlohmann::json::exception& e) {
+    throw InputError(std::string("not a design-gains JSON: ") + e.what());
+  }
+}
+
+SavedDesign saved_design_from_json_text(const std::string& text) {
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(text);
+  } catch (const nlohmann::json::exception& e) {
+    throw InputError(std::string("not valid JSON: ") + e.what());
+  }
+  return saved_design_from_json(j);
+}
+
+}  // namespace obsgain

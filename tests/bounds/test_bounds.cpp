@@ -1,0 +1,89 @@
+#include "obsgain/bounds/bounds.hpp"
+#include "obsgain/model/planar_2r.hpp"
+
+#include <gtest/gtest.h>
+
+#include <numbers>
+
+namespace {
+
+const obsgain::Model& pendubot_model() {
+  static const obsgain::Model model = obsgain::pendubot();
+  return model;
+}
+
+// Computed once per test process.
+const obsgain::BoundReport& pendubot_bounds() {
+  static const obsgain::BoundReport report = obsgain::compute_bounds(pendubot_model(), Eigen::Vector2d(10, 10));
+  return report;
+}
+
+// Design notes §2 and §4, to half a unit of their last printed digit.
+TEST(PendubotBounds, ReproduceTheDesignNotes) {
+  EXPECT_NEAR(pendubot_bounds().M0.value, 285.7398, 5e-5);
+  EXPECT_NEAR(pendubot_bounds().B.value, 0.4347667, 5e-8);
+  EXPECT_NEAR(pendubot_bounds().L_paper, 124.2301, 5e-5);
+  EXPECT_NEAR(pendubot_bounds().L_joint.value, 43.3475, 5e-5);
+  EXPECT_EQ(pendubot_bounds().F_norm, 0.0);
+}
+
+TEST(PendubotBounds, MatchClosedForms) {
+  // M0 = 1/λmin(M(q2 = 0)); B = 2 π3 ||[[-V2, -(V1 + V2)], [V1, 0]]|| at |sin q2| = 1, V = (10, 10).
+  const Eigen::Matrix2d M = obsgain::planar_2r_mass_matrix<double>({{0.0308, 0.0106, 0.0095, 0.2086, 0.0630}}, 0.0);
+  const double M0 = 1.0 / Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(M).eigenvalues()(0);
+  EXPECT_NEAR(pendubot_bounds().M0.value, M0, 1e-10 * M0);
+  const double B = 2.0 * 0.0095 * 10.0 * std::sqrt(3.0 + std::sqrt(5.0));
+  EXPECT_NEAR(pendubot_bounds().B.value, B, 1e-10 * B);
+  EXPECT_NEAR(std::abs(std::sin(pendubot_bounds().B.q(1))), 1.0, 1e-8);
+  EXPECT_NEAR(pendubot_bounds().M0.q(1), 0.0, 1e-4);
+}
+
+TEST(PendubotBounds, BothOptimisersAgree) {
+  for (const auto* m : {&pendubot_bounds().M0, &pendubot_bounds().B, &pendubot_bounds().L_joint}) {
+    EXPECT_NEAR(m->global_value, m->polish_value, 1e-8 * m->value);
+    EXPECT_GT(m->global_evaluations, 0);
+    EXPECT_GT(m->polish_evaluations, 0);
+  }
+}
+
+TEST(PendubotBounds, JointConstantNeverExceedsThePapers) { EXPECT_LE(pendubot_bounds().L_joint.value, pendubot_bounds().L_paper); }
+
+// The vertex reduction: a dense grid over q2 and the whole velocity box (not only vertices) never beats
+// the reported maxima, and comes within the grid's resolution of them.
+TEST(PendubotBounds, VertexReductionAgainstDenseGrid) {
+  const Eigen::Vector2d V(10, 10);
+  double best_B = 0.0, best_L = 0.0, best_M0 = 0.0;
+  const int nq = 721, nv = 21;
+  for (int a = 0; a < nq; ++a) {
+    const Eigen::Vector2d q(0.3, -std::numbers::pi + 2.0 * std::numbers::pi * a / (nq - 1));
+    best_M0 = std::max(best_M0, obsgain::inverse_inertia_norm(pendubot_model(), q));
+    for (int i = 0; i < nv; ++i) {
+      for (int j = 0; j < nv; ++j) {
+        const Eigen::Vector2d w(-V(0) + 2.0 * V(0) * i / (nv - 1), -V(1) + 2.0 * V(1) * j / (nv - 1));
+        best_B = std::max(best_B, obsgain::coriolis_jacobian_norm(pendubot_model(), q, w));
+        for (const Eigen::Vector2d D : {Eigen::Vector2d(1, 1), Eigen::Vector2d(1, 0), Eigen::Vector2d(0, 1)})
+          best_L = std::max(best_L, obsgain::joint_lipschitz_norm(pendubot_model(), q, w, D));
+      }
+    }
+  }
+  EXPECT_LE(best_M0, pendubot_bounds().M0.value * (1 + 1e-12));
+  EXPECT_LE(best_B, pendubot_bounds().B.value * (1 + 1e-12));
+  EXPECT_LE(best_L, pendubot_bounds().L_joint.value * (1 + 1e-12));
+  EXPECT_GT(best_M0, pendubot_bounds().M0.value * (1 - 1e-4));
+  EXPECT_GT(best_B, pendubot_bounds().B.value * (1 - 1e-4));
+  EXPECT_GT(best_L, pendubot_bounds().L_joint.value * (1 - 1e-4));
+}
+
+TEST(Bounds, FrictionEntersBothLipschitzConstants) {
+  const obsgain::Planar2RParameters p{{0.0308, 0.0106, 0.0095, 0.2086, 0.0630}, 9.81};
+  const obsgain::Model model =
+      obsgain::make_planar_2r("damped", p, Eigen::Vector2d(0.02, 0.01), Eigen::Matrix2d::Identity(), Eigen::Vector2d(10, 10));
+  const obsgain::BoundReport r = obsgain::compute_bounds(model, model.velocity_bounds);
+  EXPECT_DOUBLE_EQ(r.F_norm, 0.02);
+  EXPECT_NEAR(r.L_paper, r.M0.value * (r.B.value + 0.02), 1e-12 * r.L_paper);
+  EXPECT_LE(r.L_joint.value, r.L_paper);
+  // D = 0 leaves M⁻¹F, so L_joint is at least sup ||M⁻¹ F||.
+  EXPECT_GE(r.L_joint.value, obsgain::joint_lipschitz_norm(model, r.M0.q, Eigen::Vector2d(10, 10), Eigen::Vector2d::Zero()));
+}
+
+}  // namespace

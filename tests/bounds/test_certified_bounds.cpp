@@ -1,0 +1,265 @@
+#include "json.hpp"
+#include "obsgain/bounds/certified_bounds.hpp"
+#include "obsgain/bounds/enclosures.hpp"
+#include "obsgain/model/dynamics.hpp"
+#include "obsgain/design/design.hpp"
+#include "obsgain/report/report.hpp"
+#include "obsgain/parsers/robots.hpp"
+
+#include <gtest/gtest.h>
+
+#include <numbers>
+#include <random>
+
+namespace {
+
+const obsgain::Model& pendubot_model() {
+  static const obsgain::Model model = obsgain::pendubot();
+  return model;
+}
+
+// Computed once per test process (about two seconds of branch and bound).
+const obsgain::CertifiedBounds& pendubot_brackets() {
+  static const obsgain::CertifiedBounds brackets =
+      *obsgain::certify_bounds(pendubot_model(), obsgain::compute_bounds(pendubot_model(), Eigen::Vector2d(10, 10)));
+  return brackets;
+}
+
+void expect_brackets(const obsgain::BoundBracket& b, double reference) {
+  // The reference values (docs/reproduction.md) are rounded to 7 digits: the bracket contains them to that rounding.
+  EXPECT_LE(b.lower, reference * (1 + 1e-6));
+  EXPECT_GE(b.upper, reference * (1 - 1e-6));
+  EXPECT_LE(b.upper - b.lower, 1e-6 * b.upper);
+  EXPECT_LE(b.lower, b.upper);
+  EXPECT_GT(b.boxes, 1);
+}
+
+TEST(PendubotBrackets, ContainTheDesignNotesValuesWithGap1e6) {
+  expect_brackets(pendubot_brackets().M0, 285.7398);
+  expect_brackets(pendubot_brackets().B, 0.4347667);
+  expect_brackets(pendubot_brackets().L_joint, 43.3475);
+  // Closed forms: M0 = 1/λmin(M(q2 = 0)), B = 2 π3 · 10 · sqrt(3 + √5).
+  const Eigen::Matrix2d M = obsgain::planar_2r_mass_matrix<double>({{0.0308, 0.0106, 0.0095, 0.2086, 0.0630}}, 0.0);
+  const double M0 = 1.0 / Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(M).eigenvalues()(0);
+  EXPECT_LE(pendubot_brackets().M0.lower, M0 * (1 + 1e-14));
+  EXPECT_GE(pendubot_brackets().M0.upper, M0);
+  const double B = 2.0 * 0.0095 * 10.0 * std::sqrt(3.0 + std::sqrt(5.0));
+  EXPECT_LE(pendubot_brackets().B.lower, B * (1 + 1e-14));
+  EXPECT_GE(pendubot_brackets().B.upper, B);
+}
+
+// Dense random sampling of q, of v anywhere in the box (not only vertices) and of D in [0, 1]ⁿ never
+// exceeds a certified upper bound.
+TEST(PendubotBrackets, RandomSamplingNeverExceedsTheUpperBounds) {
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> angle(-std::numbers::pi, std::numbers::pi), unit(0.0, 1.0), box(-10.0, 10.0);
+  for (int i = 0; i < 50000; ++i) {
+    const Eigen::Vector2d q(angle(rng), angle(rng)), v(box(rng), box(rng)), D(unit(rng), unit(rng));
+    EXPECT_LE(obsgain::inverse_inertia_norm(pendubot_model(), q), pendubot_brackets().M0.upper);
+    EXPECT_LE(obsgain::coriolis_jacobian_norm(pendubot_model(), q, v), pendubot_brackets().B.upper);
+    EXPECT_LE(obsgain::joint_lipschitz_norm(pendubot_model(), q, v, D), pendubot_brackets().L_joint.upper);
+  }
+}
+
+TEST(IntervalEnclosures, NormAndEigenvalueBoundsHoldForEveryMember) {
+  std::mt19937_64 rng(9);
+  std::uniform_real_distribution<double> entry(-3.0, 3.0), width(0.0, 0.5), unit(0.0, 1.0);
+  for (int trial = 0; trial < 500; ++trial) {
+    obsgain::IntervalMatrix X(2, 2), S(2, 2);
+    for (int i = 0; i < 2; ++i)
+      for (int j = 0; j < 2; ++j) {
+        const double c = entry(rng), w = width(rng);
+        X(i, j) = obsgain::Interval(c - w, c + w);
+      }
+    const double a = 5.0 + entry(rng), b = entry(rng), c = 5.0 + entry(rng), w = width(rng);
+    S(0, 0) = obsgain::Interval(a - w, a + w);
+    S(0, 1) = S(1, 0) = obsgain::Interval(b - w, b + w);
+    S(1, 1) = obsgain::Interval(c - w, c + w);
+    const double norm_bound = obsgain::norm_upper_bound(X);
+    const double eigen_bound = obsgain::smallest_eigenvalue_lower_bound(S);
+    for (int k = 0; k < 200; ++k) {
+      Eigen::Matrix2d x, s;
+      for (int i = 0; i < 2; ++i)
+        for (int j = 0; j < 2; ++j) x(i, j) = X(i, j).lower() + unit(rng) * (X(i, j).upper() - X(i, j).lower());
+      const double off = S(0, 1).lower() + unit(rng) * (S(0, 1).upper() - S(0, 1).lower());
+      s << S(0, 0).lower() + unit(rng) * 2 * w, off, off, S(1, 1).lower() + unit(rng) * 2 * w;
+      EXPECT_LE(x.operatorNorm(), norm_bound);
+      EXPECT_GE(Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(s).eigenvalues()(0), eigen_bound);
+    }
+  }
+}
+
+// A chain of n revolute joints about alternating axes, 0.3 m links of 1 kg, with rotor inertia.
+obsgain::Model long_chain(int n) {
+  obsgain::SerialChain chain;
+  for (int i = 0; i < n; ++i) {
+    obsgain::ChainJoint joint;
+    joint.translation = Eigen::Vector3d(0.0, 0.0, i == 0 ? 0.0 : 0.3);
+    joint.axis = i % 2 == 0 ? Eigen::Vector3d::UnitZ() : Eigen::Vector3d::UnitY();
+    chain.joints.push_back(joint);
+    obsgain::RigidBody body;
+    body.mass = 1.0;
+    body.com = Eigen::Vector3d(0.0, 0.0, 0.15);
+    body.inertia = 0.01 * Eigen::Matrix3d::Identity();
+    chain.bodies.push_back(body);
+  }
+  chain.armature = Eigen::VectorXd::Constant(n, 0.1);
+  obsgain::Model model;
+  model.name = "long-chain";
+  model.structure = chain;
+  model.joints.assign(static_cast<std::size_t>(n), obsgain::JointDomain{});
+  model.friction = Eigen::MatrixXd::Zero(n, n);
+  model.input_matrix = Eigen::MatrixXd::Identity(n, n);
+  model.velocity_bounds = Eigen::VectorXd::Constant(n, 1.0);
+  return model;
+}
+
+// A chain whose M and C depend on more joints than the interval search takes cannot be certified: numeric bounds,
+// with a warning saying so.
+TEST(CertifiedDesign, FallsBackToNumericWithAWarningAndIsNeverCalledCertified) {
+  const obsgain::Model model = long_chain(obsgain::kMaxDirections + 2);
+  obsgain::DesignOptions options;
+  options.gamma = 1.0;
+  options.bounds.global_evaluations_per_dimension = 10;  // the search itself is not what is tested
+  options.bounds.samples_per_dimension = 2;
+  options.bounds.polish_starts = 1;
+  const obsgain::BoundReport bounds = obsgain::compute_bounds(model, model.velocity_bounds, options.bounds);
+  EXPECT_FALSE(obsgain::certify_bounds(model, bounds).has_value());
+  const obsgain::Design design = obsgain::design_gains(model, options);
+  EXPECT_STREQ(design.bounds.method(), "numeric");
+  EXPECT_FALSE(design.bounds.certified);
+  ASSERT_FALSE(design.warnings.empty());
+  EXPECT_NE(design.warnings.front().find("certified bounds search at most"), std::string::npos) << design.warnings.front();
+  EXPECT_EQ(design.bounds.L_joint.value, bounds.L_joint.value);
+  // The certificate holds on the estimated L, but it is not a proof: never labelled certified.
+  EXPECT_TRUE(design.selected().observer.certified);
+  EXPECT_FALSE(design.proven());
+  EXPECT_NE(design.not_proven_reason.find("estimates"), std::string::npos);
+  EXPECT_NE(obsgain::unmet_request(design, options).find("--bounds numeric"), std::string::npos);
+  const std::string table = obsgain::format_report(design);
+  EXPECT_EQ(table.find("certified:"), std::string::npos) << table;
+  EXPECT_NE(table.find("estimate (numeric bounds, not proven)"), std::string::npos);
+  const nlohmann::json j = obsgain::to_json(design);
+  EXPECT_FALSE(j["certified"].get<bool>());
+  EXPECT_TRUE(j.contains("certified_reason"));
+}
+
+}  // namespace
+
+namespace {
+
+const std::string examples = OBSGAIN_EXAMPLES_DIR;
+
+// A light numeric search: the branch and bound only needs its argmax as a seed (the tests compare the brackets
+// with sampled values, not with the search).
+obsgain::BoundReport light_search(const obsgain::Model& model) {
+  obsgain::BoundOptions options;
+  options.global_evaluations_per_dimension = 100;
+  options.polish_starts = 1;
+  options.samples_per_dimension = 4;
+  return obsgain::compute_bounds(model, model.velocity_bounds, options);
+}
+
+obsgain::CertifiedBounds certify_with(const obsgain::Model& model, const obsgain::BoundReport& numeric,
+                                      double budget_seconds, double relative_gap = 1e-6) {
+  obsgain::CertifiedOptions options;
+  options.budget_seconds = budget_seconds;
+  options.relative_gap = relative_gap;
+  return *obsgain::certify_bounds(model, numeric, options);
+}
+
+// The largest values on a grid over (q2, q3) with every vertex (and pattern): attained values, so never above
+// a proven upper end.
+struct GridMaxima {
+  double M0 = 0.0, B = 0.0, L = 0.0;
+};
+
+GridMaxima arm3_grid(const obsgain::Model& arm) {
+  GridMaxima g;
+  const int steps = 20;
+  for (int a = 0; a <= steps; ++a)
+    for (int b = 0; b <= steps; ++b) {
+      const Eigen::Vector3d q(0.0, -2.0 + 4.0 * a / steps, -2.6 + 5.2 * b / steps);
+      g.M0 = std::max(g.M0, obsgain::inverse_inertia_norm(arm, q));
+      g.B = std::max(g.B, obsgain::max_coriolis_jacobian_norm(arm, q, arm.velocity_bounds));
+      g.L = std::max(g.L, obsgain::max_joint_lipschitz_norm(arm, q, arm.velocity_bounds));
+    }
+  return g;
+}
+
+TEST(ArmBrackets, ThreeJointArmBracketsContainTheGridAndTightenWithTheBudget) {
+  const obsgain::Model arm = obsgain::load_robot({examples + "/arm3.urdf"});
+  const GridMaxima grid = arm3_grid(arm);
+  const obsgain::BoundReport numeric = light_search(arm);
+  const obsgain::CertifiedBounds tiny = certify_with(arm, numeric, 0.3);
+  const obsgain::CertifiedBounds converged = certify_with(arm, numeric, 0.0, 1e-2);  // no budget: until the gap
+  for (const auto* brackets : {&tiny, &converged}) {
+    EXPECT_GE(brackets->M0.upper, grid.M0);
+    EXPECT_GE(brackets->B.upper, grid.B);
+    EXPECT_GE(brackets->L_joint.upper, grid.L);
+    EXPECT_LE(brackets->L_joint.lower, brackets->L_joint.upper);
+  }
+  // The budget is honoured (a fraction of a second, not the seconds the gap takes; generous for a loaded or
+  // sanitised build) and yields a wider but sound bracket; without a budget every gap is reached.
+  EXPECT_LT(tiny.M0.seconds + tiny.B.seconds + tiny.L_joint.seconds, 3.0);
+  EXPECT_GE(tiny.L_joint.upper, converged.L_joint.upper);
+  EXPECT_GT(tiny.L_joint.upper - tiny.L_joint.lower, converged.L_joint.upper - converged.L_joint.lower);
+  for (const auto* bracket : {&converged.M0, &converged.B, &converged.L_joint})
+    EXPECT_LE(bracket->upper - bracket->lower, 1e-2 * bracket->upper);
+  EXPECT_GE(converged.L_joint.lower, grid.L * (1 - 1e-12));
+}
+
+// A search longer than a second reports where it stands, about four times a second: the bracket it reports
+// narrows, its boxes grow, and the time left never exceeds the bound's share of the budget.
+TEST(ArmBrackets, LongSearchesReportProgress) {
+  const obsgain::Model arm = obsgain::load_robot({examples + "/arm3.urdf"});
+  const obsgain::BoundReport numeric = light_search(arm);
+  obsgain::CertifiedOptions options;
+  options.budget_seconds = 3.6;  // 1.2 s per bound
+  std::vector<obsgain::SearchProgress> reports;
+  options.progress = [&](const obsgain::SearchProgress& p) { reports.push_back(p); };
+  obsgain::certify_bounds(arm, numeric, options);
+  ASSERT_FALSE(reports.empty());
+  const std::string first = reports.front().bound;
+  EXPECT_EQ(first, "L_joint");
+  for (std::size_t i = 0; i < reports.size(); ++i) {
+    const obsgain::SearchProgress& p = reports[i];
+    EXPECT_GE(p.seconds, 1.0);
+    EXPECT_LE(p.seconds_left, 1.2 + 0.5);
+    EXPECT_LE(p.lower, p.upper);
+    if (std::isfinite(p.upper))
+      EXPECT_NEAR(p.relative_gap, (p.upper - p.lower) / p.upper, 1e-12);
+    else
+      EXPECT_EQ(p.relative_gap, 1.0);  // a box whose bound is not finite yet (slow, sanitised builds see these)
+    if (i > 0 && std::string(p.bound) == reports[i - 1].bound) {
+      EXPECT_GT(p.boxes, reports[i - 1].boxes);
+      EXPECT_LE(p.upper, reports[i - 1].upper);
+    }
+  }
+}
+
+// Six joints: random configurations and random points of the velocity box never exceed the proven upper ends,
+// however short the budget.
+TEST(ArmBrackets, SixJointArmBracketsAreNeverBelowSampledValues) {
+  const obsgain::Model arm = obsgain::load_robot({examples + "/arm6.urdf"});
+  const obsgain::BoundReport numeric = light_search(arm);
+  const obsgain::CertifiedBounds brackets = certify_with(arm, numeric, 3.0);
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> angle(-3.14159, 3.14159), unit(-1.0, 1.0), pattern(0.0, 1.0);
+  EXPECT_GE(brackets.M0.upper, numeric.M0.value);
+  EXPECT_GE(brackets.B.upper, numeric.B.value);
+  EXPECT_GE(brackets.L_joint.upper, numeric.L_joint.value);
+  for (int i = 0; i < 300; ++i) {
+    Eigen::VectorXd q(6), v(6), D(6);
+    for (int k = 0; k < 6; ++k) {
+      q(k) = angle(rng);
+      v(k) = unit(rng) * arm.velocity_bounds(k);
+      D(k) = pattern(rng);
+    }
+    EXPECT_LE(obsgain::inverse_inertia_norm(arm, q), brackets.M0.upper);
+    EXPECT_LE(obsgain::coriolis_jacobian_norm(arm, q, v), brackets.B.upper);
+    EXPECT_LE(obsgain::joint_lipschitz_norm(arm, q, v, D), brackets.L_joint.upper);
+  }
+}
+
+}  // namespace

@@ -1,0 +1,87 @@
+#include "obsgain/bounds/bounds.hpp"
+#include "obsgain/model/dynamics.hpp"
+#include "obsgain/parsers/robots.hpp"
+
+#include <gtest/gtest.h>
+
+namespace {
+
+const std::string examples = OBSGAIN_EXAMPLES_DIR;
+
+// Polarisation of the quadratic form A(q, ·): (A(e_j + e_k) - A(e_j) - A(e_k)) / 2, an independent way to the
+// tensors that the chain computes entry by entry with its bilinear Newton–Euler pass.
+double polarised(const obsgain::Model& model, const Eigen::VectorXd& q, int i, int j, int k) {
+  const int n = model.dof();
+  const auto A = [&](const Eigen::VectorXd& v) {
+    Eigen::VectorXd out(n);
+    obsgain::coriolis(model, q, v, out);
+    return out(i);
+  };
+  const Eigen::VectorXd ej = Eigen::VectorXd::Unit(n, j), ek = Eigen::VectorXd::Unit(n, k);
+  return j == k ? A(ej) : 0.5 * (A(ej + ek) - A(ej) - A(ek));
+}
+
+TEST(Model, ChainTensorsEqualThePolarisedCoriolisForce) {
+  const obsgain::Model model = obsgain::load_robot({examples + "/arm6.urdf"});
+  const int n = model.dof();
+  for (int trial = 0; trial < 3; ++trial) {
+    const Eigen::VectorXd q = Eigen::VectorXd::LinSpaced(n, -1.0 + trial, 2.0 - 0.7 * trial);
+    std::vector<Eigen::MatrixXd> N;
+    obsgain::coriolis_tensors(model, q, N);
+    double scale = 0.0;
+    for (const auto& Ni : N) scale = std::max(scale, Ni.cwiseAbs().maxCoeff());
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < n; ++j)
+        for (int k = 0; k < n; ++k) EXPECT_NEAR(N[i](j, k), polarised(model, q, i, j, k), 1e-13 * scale);
+  }
+}
+
+TEST(Model, ChainBilinearFormEqualsThePolarisedOne) {
+  const obsgain::Model model = obsgain::load_robot({examples + "/arm7.urdf"});
+  const int n = model.dof();
+  const Eigen::VectorXd q = Eigen::VectorXd::LinSpaced(n, -2.0, 1.3);
+  const Eigen::VectorXd x = Eigen::VectorXd::LinSpaced(n, 1.0, -1.5), y = Eigen::VectorXd::LinSpaced(n, 0.3, 2.0);
+  Eigen::VectorXd bilinear(n), plus(n), minus(n);
+  obsgain::coriolis_bilinear(model, q, x, y, bilinear);
+  obsgain::coriolis(model, q, x + y, plus);
+  obsgain::coriolis(model, q, x - y, minus);
+  // Polarisation subtracts terms of size ||A(x ± y)||: its error is rounding at that scale.
+  EXPECT_LE((bilinear - 0.25 * (plus - minus)).norm(), 1e-13 * plus.norm());
+  EXPECT_GT(bilinear.norm(), 1e-3);
+}
+
+TEST(Model, CoriolisTensorsReproduceCTimesV) {
+  const obsgain::Model model = obsgain::pendubot();
+  const Eigen::Vector2d q(0.1, 0.9), v(3.0, -7.0);
+  std::vector<Eigen::MatrixXd> N;
+  obsgain::coriolis_tensors(model, q, N);
+  // C(q, v) v of the paper, written out.
+  const double p3 = 0.0095, s2 = std::sin(q(1));
+  const Eigen::Vector2d Cv(-p3 * s2 * v(1) * v(0) + (-p3 * s2 * v(1) - p3 * s2 * v(0)) * v(1), p3 * s2 * v(0) * v(0));
+  for (int i = 0; i < 2; ++i) EXPECT_NEAR(v.dot(N[i] * v), Cv(i), 1e-15);
+}
+
+TEST(Model, UnknownRobotAndBadBoundsAreRefused) {
+  EXPECT_THROW(obsgain::load_robot({"nope"}), obsgain::InputError);
+  const obsgain::Model model = obsgain::pendubot();
+  EXPECT_THROW(obsgain::validate_velocity_bounds(model, Eigen::Vector3d(1, 1, 1)), obsgain::InputError);
+  EXPECT_THROW(obsgain::validate_velocity_bounds(model, Eigen::Vector2d(0, 1)), obsgain::InputError);
+  EXPECT_THROW(obsgain::validate_velocity_bounds(model, Eigen::Vector2d(std::nan(""), 1)), obsgain::InputError);
+  EXPECT_NO_THROW(obsgain::validate_velocity_bounds(model, Eigen::Vector2d(1, 2)));
+}
+
+TEST(Model, SingularInertiaIsReportedWithItsConfiguration) {
+  // π1 π2 = π3² makes M(q) singular at q2 = 0.
+  const obsgain::Planar2RParameters singular{{0.01, 0.01, 0.01, 0.1, 0.1}, 9.81};
+  const obsgain::Model model =
+      obsgain::make_planar_2r("singular", singular, Eigen::Vector2d::Zero(), Eigen::Matrix2d::Identity(),
+                              Eigen::Vector2d(1, 1));
+  try {
+    obsgain::compute_bounds(model, Eigen::Vector2d(1, 1));
+    FAIL() << "a singular inertia matrix must be refused";
+  } catch (const obsgain::InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("singular"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace

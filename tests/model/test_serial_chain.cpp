@@ -1,0 +1,274 @@
+// The chain dynamics (composite-rigid-body and bilinear Newton–Euler, templated on the scalar) against KDL, an
+// independent implementation; and the URDF quirks of real arms (fixed frames, fixed side
+// branches, grippers with mimic fingers, Drake transmissions).
+#include "test_files.hpp"
+#include "obsgain/design/design.hpp"
+#include "obsgain/parsers/robots.hpp"
+#include "obsgain/model/dynamics.hpp"
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+#include <kdl/chaindynparam.hpp>
+#include <kdl/tree.hpp>
+#include <kdl_parser/kdl_parser.hpp>
+#include <urdf_parser/urdf_parser.h>
+
+#include <fstream>
+#include <numbers>
+#include <random>
+#include <sstream>
+
+namespace {
+
+using obsgain_test::read_text;
+using obsgain_test::write_temp_file;
+
+const std::string examples = OBSGAIN_EXAMPLES_DIR;
+
+// KDL's chain from the file's root to `tip`, gravity -9.81 z.
+struct KdlReference {
+  KDL::Tree tree;
+  KDL::Chain chain;
+  std::unique_ptr<KDL::ChainDynParam> solver;
+  KdlReference(const std::string& path, const std::string& tip) {
+    const urdf::ModelInterfaceSharedPtr robot = urdf::parseURDF(read_text(path));
+    robot->root_link_->inertial.reset();  // the fixed world; kdl_parser would only warn about it
+    EXPECT_TRUE(kdl_parser::treeFromUrdfModel(*robot, tree));
+    EXPECT_TRUE(tree.getChain(robot->getRoot()->name, tip, chain));
+    solver = std::make_unique<KDL::ChainDynParam>(chain, KDL::Vector(0.0, 0.0, -9.81));
+  }
+};
+
+class ChainAgainstKdl : public ::testing::TestWithParam<std::pair<const char*, const char*>> {};
+
+TEST_P(ChainAgainstKdl, MassCoriolisAndGravityAgreeTo1e12) {
+  const auto [file, tip] = GetParam();
+  const std::string path = examples + "/" + file;
+  // KDL knows no rotor inertia: compare the rigid bodies alone.
+  const int dof = obsgain::load_robot({path}).dof();
+  const obsgain::Model model = obsgain::load_robot({path, "", "", {}, std::vector<double>(dof, 0.0)});
+  KdlReference kdl(path, tip);
+  const int n = model.dof();
+  ASSERT_EQ(static_cast<int>(kdl.chain.getNrOfJoints()), n);
+  std::mt19937_64 rng(17);
+  std::uniform_real_distribution<double> angle(-std::numbers::pi, std::numbers::pi), speed(-3.0, 3.0);
+  for (int trial = 0; trial < 20; ++trial) {
+    KDL::JntArray q(n), v(n), out(n);
+    KDL::JntSpaceInertiaMatrix M_kdl(n);
+    for (int i = 0; i < n; ++i) {
+      q(i) = angle(rng);
+      v(i) = speed(rng);
+    }
+    kdl.solver->JntToMass(q, M_kdl);
+    Eigen::MatrixXd M(n, n);
+    obsgain::mass_matrix(model, q.data, M);
+    EXPECT_LE((M - M_kdl.data).norm(), 1e-12 * M_kdl.data.norm()) << file;
+    kdl.solver->JntToCoriolis(q, v, out);
+    Eigen::VectorXd A(n);
+    obsgain::coriolis(model, q.data, v.data, A);
+    EXPECT_LE((A - out.data).norm(), 1e-12 * (out.data.norm() + M.norm())) << file;
+    kdl.solver->JntToGravity(q, out);
+    Eigen::VectorXd g(n);
+    obsgain::gravity(model, q.data, g);
+    EXPECT_LE((g - out.data).norm(), 1e-12 * (out.data.norm() + 1.0)) << file;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(ShippedArms, ChainAgainstKdl,
+                         ::testing::Values(std::pair{"pendubot.urdf", "link2"}, std::pair{"arm3.urdf", "forearm"},
+                                           std::pair{"arm6.urdf", "wrist_3_link"}, std::pair{"arm7.urdf", "link7"}),
+                         [](const auto& info) {
+                           const std::string file = info.param.first;
+                           return file.substr(0, file.find('.'));
+                         });
+
+// A body in pieces — a link, a tool flange on a fixed joint, a fixed side branch (a sensor), and a gripper
+// whose two fingers are a prismatic joint and its <mimic> — must have the dynamics of the one body summed
+// by hand.
+const char* kPiecesUrdf = R"(<?xml version="1.0"?>
+<robot name="pieces">
+  <link name="world"/>
+  <joint name="j1" type="revolute"><parent link="world"/><child link="l1"/><axis xyz="0 0 1"/>
+    <limit lower="-3" upper="3" effort="10" velocity="2"/></joint>
+  <link name="l1"><inertial><origin xyz="0 0 0.1"/><mass value="2"/>
+    <inertia ixx="0.02" ixy="0" ixz="0" iyy="0.02" iyz="0" izz="0.01"/></inertial></link>
+  <joint name="j2" type="revolute"><parent link="l1"/><child link="l2"/><origin xyz="0 0 0.2"/><axis xyz="0 1 0"/>
+    <limit lower="-2" upper="2" effort="10" velocity="3"/></joint>
+  <link name="l2"><inertial><origin xyz="0.2 0 0"/><mass value="1"/>
+    <inertia ixx="0.001" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial></link>
+  <joint name="sensor_mount" type="fixed"><parent link="l2"/><child link="sensor"/><origin xyz="0.1 0.05 0"/></joint>
+  <link name="sensor"><inertial><mass value="0.2"/>
+    <inertia ixx="0.0001" ixy="0" ixz="0" iyy="0.0001" iyz="0" izz="0.0001"/></inertial></link>
+  <joint name="flange" type="fixed"><parent link="l2"/><child link="hand"/><origin xyz="0.4 0 0"/></joint>
+  <link name="hand"><inertial><mass value="0.5"/>
+    <inertia ixx="0.0005" ixy="0" ixz="0" iyy="0.0005" iyz="0" izz="0.0005"/></inertial></link>
+  <joint name="finger_left" type="prismatic"><parent link="hand"/><child link="left"/><axis xyz="0 1 0"/>
+    <limit lower="0" upper="0.04" effort="10" velocity="0.2"/></joint>
+  <link name="left"><inertial><mass value="0.1"/>
+    <inertia ixx="0.00001" ixy="0" ixz="0" iyy="0.00001" iyz="0" izz="0.00001"/></inertial></link>
+  <joint name="finger_right" type="prismatic"><parent link="hand"/><child link="right"/><axis xyz="0 -1 0"/>
+    <limit lower="0" upper="0.04" effort="10" velocity="0.2"/><mimic joint="finger_left"/></joint>
+  <link name="right"><inertial><mass value="0.1"/>
+    <inertia ixx="0.00001" ixy="0" ixz="0" iyy="0.00001" iyz="0" izz="0.00001"/></inertial></link>
+  <transmission name="t1"><type>transmission_interface/SimpleTransmission</type>
+    <joint name="j1"><hardwareInterface>EffortJointInterface</hardwareInterface></joint>
+    <actuator name="m1"><drake:gear_ratio value="100"/><drake:rotor_inertia value="0.0001"/></actuator></transmission>
+  <transmission name="t2"><type>transmission_interface/SimpleTransmission</type>
+    <joint name="j2"><hardwareInterface>EffortJointInterface</hardwareInterface></joint>
+    <actuator name="m2"><drake:gear_ratio value="50"/><drake:rotor_inertia value="0.0002"/></actuator></transmission>
+</robot>)";
+
+// The same second body summed by hand: point masses and own inertias moved to the common centre of mass
+// (the fingers locked at the middle of their range, 0.02 m, one each way).
+std::string hand_summed_urdf() {
+  struct Part {
+    double m;
+    Eigen::Vector3d c;
+    double I;  // isotropic own inertia, or the l2 link's diagonal below
+  };
+  const std::vector<Part> parts = {{0.2, {0.1, 0.05, 0}, 0.0001}, {0.5, {0.4, 0, 0}, 0.0005},
+                                   {0.1, {0.4, 0.02, 0}, 0.00001}, {0.1, {0.4, -0.02, 0}, 0.00001}};
+  double mass = 1.0;
+  Eigen::Vector3d moment = Eigen::Vector3d(0.2, 0, 0);
+  for (const auto& p : parts) {
+    mass += p.m;
+    moment += p.m * p.c;
+  }
+  const Eigen::Vector3d com = moment / mass;
+  const auto shift = [](double m, const Eigen::Vector3d& d) {
+    return Eigen::Matrix3d(m * (d.squaredNorm() * Eigen::Matrix3d::Identity() - d * d.transpose()));
+  };
+  Eigen::Matrix3d I = Eigen::Vector3d(0.001, 0.01, 0.01).asDiagonal();
+  I += shift(1.0, Eigen::Vector3d(0.2, 0, 0) - com);
+  for (const auto& p : parts) I += p.I * Eigen::Matrix3d::Identity() + shift(p.m, p.c - com);
+  std::string text = kPiecesUrdf;
+  const auto begin = text.find("<joint name=\"sensor_mount\"");
+  const auto end = text.find("<transmission");
+  text.replace(begin, end - begin, "");
+  const std::string l2 = fmt::format(
+      R"(<link name="l2"><inertial><origin xyz="{:.17g} {:.17g} {:.17g}"/><mass value="{:.17g}"/>
+    <inertia ixx="{:.17g}" ixy="{:.17g}" ixz="{:.17g}" iyy="{:.17g}" iyz="{:.17g}" izz="{:.17g}"/></inertial></link>
+  )",
+      com.x(), com.y(), com.z(), mass, I(0, 0), I(0, 1), I(0, 2), I(1, 1), I(1, 2), I(2, 2));
+  const auto l2_begin = text.find("<link name=\"l2\">");
+  const auto l2_end = text.find("</link>", l2_begin) + 7;
+  text.replace(l2_begin, l2_end - l2_begin, l2);
+  return text;
+}
+
+TEST(UrdfQuirks, FixedFramesSideBranchesAndMimicFingersAreLumpedIntoOneBody) {
+  const obsgain::Model pieces = obsgain::load_robot({write_temp_file("pieces.urdf", kPiecesUrdf), "", "", {}, {0.0, 0.0}});
+  const obsgain::Model summed = obsgain::load_robot({write_temp_file("summed.urdf", hand_summed_urdf()), "", "", {}, {0.0, 0.0}});
+  ASSERT_EQ(pieces.dof(), 2);  // the fingers are a gripper: locked, not chain joints
+  for (const Eigen::Vector2d q : {Eigen::Vector2d(0.3, -1.0), Eigen::Vector2d(-2.0, 1.7)}) {
+    Eigen::MatrixXd Mp(2, 2), Ms(2, 2);
+    obsgain::mass_matrix(pieces, q, Mp);
+    obsgain::mass_matrix(summed, q, Ms);
+    EXPECT_LE((Mp - Ms).norm(), 1e-13 * Ms.norm()) << q.transpose();
+    Eigen::VectorXd gp(2), gs(2);
+    obsgain::gravity(pieces, q, gp);
+    obsgain::gravity(summed, q, gs);
+    EXPECT_LE((gp - gs).norm(), 1e-13 * gs.norm()) << q.transpose();
+  }
+  std::string notes;
+  for (const auto& note : pieces.notes) notes += note + "\n";
+  EXPECT_NE(notes.find("'finger_left' at 0.02"), std::string::npos) << notes;
+  EXPECT_NE(notes.find("'finger_right' at 0.02"), std::string::npos) << notes;
+  EXPECT_NE(notes.find("taken as a gripper"), std::string::npos) << notes;
+}
+
+TEST(UrdfQuirks, DrakeTransmissionsPutReflectedRotorInertiaOnTheDiagonal) {
+  const std::string path = write_temp_file("pieces.urdf", kPiecesUrdf);
+  const obsgain::Model with = obsgain::load_robot({path});
+  const obsgain::Model without = obsgain::load_robot({path, "", "", {}, {0.0, 0.0}});
+  ASSERT_EQ(obsgain::armature(with).size(), 2);
+  EXPECT_DOUBLE_EQ(obsgain::armature(with)(0), 100.0 * 100.0 * 0.0001);  // 1 kg m²
+  EXPECT_DOUBLE_EQ(obsgain::armature(with)(1), 50.0 * 50.0 * 0.0002);    // 0.5 kg m²
+  const Eigen::Vector2d q(0.4, 0.9);
+  Eigen::MatrixXd M_with(2, 2), M_without(2, 2);
+  obsgain::mass_matrix(with, q, M_with);
+  obsgain::mass_matrix(without, q, M_without);
+  EXPECT_LE((M_with - M_without - Eigen::Matrix2d(Eigen::Vector2d(1.0, 0.5).asDiagonal())).norm(), 1e-14);
+  const obsgain::Model overridden = obsgain::load_robot({path, "", "", {}, {0.25, 0.125}});
+  Eigen::MatrixXd M_overridden(2, 2);
+  obsgain::mass_matrix(overridden, q, M_overridden);
+  EXPECT_LE((M_overridden - M_without - Eigen::Matrix2d(Eigen::Vector2d(0.25, 0.125).asDiagonal())).norm(), 1e-14);
+  std::string notes;
+  for (const auto& note : with.notes) notes += note;
+  EXPECT_NE(notes.find("drake:rotor_inertia"), std::string::npos) << notes;
+}
+
+TEST(UrdfQuirks, DefaultChainIgnoresFixedLeavesAndRefusesSeveralArms) {
+  // Fixed frames below the tip (UR-style ee_link and tool0) are leaves that change nothing.
+  std::string frames = kPiecesUrdf;
+  frames.replace(frames.find("</robot>"), 8, R"(<joint name="tool0_joint" type="fixed"><parent link="hand"/><child link="tool0"/>
+    <origin xyz="0 0 0.1"/></joint><link name="tool0"/></robot>)");
+  EXPECT_EQ(obsgain::load_robot({write_temp_file("frames.urdf", frames)}).dof(), 2);
+  // Two long movable branches are two arms: the user must choose, and the error names the candidates.
+  std::string two_arms = R"(<?xml version="1.0"?><robot name="dual"><link name="torso"/>)";
+  for (const char* side : {"left", "right"}) {
+    std::string parent = "torso";
+    for (int i = 1; i <= 4; ++i) {
+      const std::string link = fmt::format("{}_{}", side, i);
+      two_arms += fmt::format(R"(<joint name="{0}_j" type="continuous"><parent link="{1}"/><child link="{0}"/>
+        <origin xyz="0 0 0.1"/><axis xyz="0 1 0"/></joint><link name="{0}"><inertial><mass value="1"/>
+        <inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial></link>)",
+                              link, parent);
+      parent = link;
+    }
+  }
+  two_arms += "</robot>";
+  try {
+    obsgain::load_robot({write_temp_file("two_arms.urdf", two_arms)});
+    ADD_FAILURE() << "two arms need --tip-link";
+  } catch (const obsgain::InputError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("--tip-link"), std::string::npos) << what;
+    EXPECT_NE(what.find("left_4, right_4"), std::string::npos) << what;
+  }
+  EXPECT_EQ(obsgain::load_robot({write_temp_file("two_arms.urdf", two_arms), "", "left_4", {}}).dof(), 4);
+}
+
+}  // namespace
+
+namespace {
+
+// A CAD export: limits 0/0 and velocity 0. Refused naming the joint, the attribute and the override; accepted
+// with --joint-limits and --vmax.
+TEST(UrdfQuirks, CadLimitsAreRefusedNamingTheJointAndTheOverride) {
+  std::string cad = kPiecesUrdf;
+  const std::string limit = R"(<limit lower="-2" upper="2" effort="10" velocity="3"/>)";
+  cad.replace(cad.find(limit), limit.size(), R"(<limit lower="0" upper="0" effort="0" velocity="0"/>)");
+  const std::string path = write_temp_file("cad.urdf", cad);
+  try {
+    obsgain::load_robot({path});
+    ADD_FAILURE() << "limits 0/0 must be refused";
+  } catch (const obsgain::InputError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("joint 'j2' has <limit lower=\"0\" upper=\"0\">"), std::string::npos) << what;
+    EXPECT_NE(what.find("--joint-limits"), std::string::npos) << what;
+  }
+  obsgain::RobotSource source{path};
+  source.joint_limits = {obsgain::JointDomain{}, obsgain::JointDomain{obsgain::JointType::revolute, false, -1.5, 1.5}};
+  const obsgain::Model model = obsgain::load_robot(source);
+  EXPECT_TRUE(model.joints[0].continuous);  // "c": the full circle, whatever the file says
+  EXPECT_DOUBLE_EQ(model.joints[1].lower, -1.5);
+  EXPECT_EQ(model.velocity_bounds.size(), 0);
+  EXPECT_NE(model.missing_velocity_bounds.find("joint 'j2' has <limit velocity=\"0\">"), std::string::npos)
+      << model.missing_velocity_bounds;
+  obsgain::DesignOptions options;
+  options.gamma = 2.0;
+  options.bound_method = obsgain::BoundMethod::numeric;
+  try {
+    obsgain::design_gains(model, options);
+    ADD_FAILURE() << "no velocity bounds: --vmax is needed";
+  } catch (const obsgain::InputError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("joint 'j2' has <limit velocity=\"0\">"), std::string::npos) << what;
+    EXPECT_NE(what.find("--vmax"), std::string::npos) << what;
+  }
+  options.velocity_bounds = Eigen::Vector2d(2.0, 3.0);
+  EXPECT_TRUE(obsgain::design_gains(model, options).selected().observer.certified);
+}
+
+}  // namespace

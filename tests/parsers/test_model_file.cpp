@@ -1,0 +1,139 @@
+#include "json.hpp"
+#include "obsgain/bounds/bounds.hpp"
+#include "obsgain/design/design.hpp"
+#include "obsgain/parsers/model_file.hpp"
+#include "obsgain/model/dynamics.hpp"
+#include "obsgain/parsers/robots.hpp"
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <limits>
+
+namespace {
+
+const std::string examples = OBSGAIN_EXAMPLES_DIR;
+
+TEST(ModelFile, PendubotFileEqualsTheBuiltIn) {
+  const obsgain::Model file = obsgain::load_robot({examples + "/pendubot.json"});
+  const obsgain::Model builtin = obsgain::pendubot();
+  const obsgain::BoundReport a = obsgain::compute_bounds(file, file.velocity_bounds);
+  const obsgain::BoundReport b = obsgain::compute_bounds(builtin, builtin.velocity_bounds);
+  EXPECT_EQ(file.name, "pendubot");
+  EXPECT_EQ(file.input_matrix, builtin.input_matrix);
+  EXPECT_DOUBLE_EQ(a.M0.value, b.M0.value);
+  EXPECT_DOUBLE_EQ(a.B.value, b.B.value);
+  EXPECT_DOUBLE_EQ(a.L_joint.value, b.L_joint.value);
+}
+
+// Hand-derived: for π3 > 0, det M = π1π2 − π3² cos²q2 is smallest and tr M largest at q2 = 0, so
+// M0 = 1/λmin(M(0)); B = 2π3 max over the two sign patterns of ||[[−w2, −(w1 + w2)], [w1, 0]]|| at |sin q2| = 1.
+void expect_hand_derived(const std::string& file, double pi1, double pi2, double pi3, const Eigen::Vector2d& V,
+                         double friction_norm) {
+  const obsgain::Model model = obsgain::load_robot({examples + "/" + file});
+  const obsgain::BoundReport r = obsgain::compute_bounds(model, model.velocity_bounds);
+  const double tr = pi1 + 2 * pi2 + 2 * pi3, det = pi1 * pi2 - pi3 * pi3;
+  const double M0 = 2.0 / (tr - std::sqrt(tr * tr - 4 * det)) ;
+  double B = 0.0;
+  for (const Eigen::Vector2d w : {Eigen::Vector2d(V(0), V(1)), Eigen::Vector2d(V(0), -V(1))}) {
+    Eigen::Matrix2d X;
+    X << -w(1), -(w(0) + w(1)), w(0), 0.0;
+    B = std::max(B, 2 * pi3 * X.operatorNorm());
+  }
+  EXPECT_NEAR(r.M0.value, M0, 1e-9 * M0) << file;
+  EXPECT_NEAR(r.B.value, B, 1e-9 * B) << file;
+  EXPECT_DOUBLE_EQ(r.F_norm, friction_norm) << file;
+  EXPECT_NEAR(r.L_paper, M0 * (B + friction_norm), 1e-8 * r.L_paper) << file;
+  EXPECT_LE(r.L_joint.value, r.L_paper) << file;
+}
+
+TEST(ModelFile, ExamplesAgainstHandDerivedValues) {
+  expect_hand_derived("acrobot.json", 0.3333, 0.3333, 0.25, Eigen::Vector2d(6, 12), 0.0);
+  expect_hand_derived("two_link_arm.json", 1.2, 0.25, 0.3, Eigen::Vector2d(3, 4), 0.5);
+  const obsgain::Model acrobot = obsgain::load_robot({examples + "/acrobot.json"});
+  EXPECT_EQ(acrobot.input_matrix, Eigen::MatrixXd(Eigen::Vector2d(0, 1)));
+}
+
+nlohmann::json valid() {
+  return nlohmann::json::parse(R"({"name": "arm", "type": "planar_2r", "pi": [1.2, 0.25, 0.3, 8, 1],
+                                   "friction": [0.5, 0.2], "velocity_bounds": [3, 4]})");
+}
+
+void expect_refused(const nlohmann::json& j, const std::string& field) {
+  try {
+    obsgain::model_from_json_text(j.dump(), "arm.json");
+    FAIL() << "accepted " << j.dump();
+  } catch (const obsgain::InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("arm.json"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what() << " should name " << field;
+  }
+}
+
+TEST(ModelFile, MalformedDescriptionsNameTheField) {
+  EXPECT_NO_THROW(obsgain::model_from_json_text(valid().dump(), "arm.json"));
+  auto j = valid();
+  j.erase("pi");
+  expect_refused(j, "'pi' is missing");
+  j = valid();
+  j["mass"] = 3;
+  expect_refused(j, "'mass' is not a model field");
+  j = valid();
+  j["pi"] = {1, 2, 3, 4};
+  expect_refused(j, "'pi' must be an array of 5 numbers");
+  j = valid();
+  j["pi"][2] = "0.3";
+  expect_refused(j, "'pi[2]' must be a number");
+  j = valid();
+  j["pi"] = {0.01, 0.01, 0.01, 0.1, 0.1};  // π1π2 = π3²: singular at q2 = 0
+  expect_refused(j, "singular or indefinite");
+  j = valid();
+  j["pi"][1] = -0.25;
+  expect_refused(j, "not positive definite");
+  j = valid();
+  j["type"] = "scara";
+  expect_refused(j, "'type' must be \"planar_2r\"");
+  j = valid();
+  j["velocity_bounds"] = {3, -4};
+  expect_refused(j, "'velocity_bounds' must be positive");
+  j = valid();
+  j["friction"] = {0.5};
+  expect_refused(j, "'friction' must be an array of 2");
+  j = valid();
+  j["input_matrix"] = {{1, 0}};
+  expect_refused(j, "'input_matrix' must be 2 rows");
+  // JSON has no infinity: a number beyond double's range is refused as the text it is.
+  std::string text = valid().dump();
+  text.replace(text.find("\"name\""), 0, "\"g0\": 1e999, ");
+  EXPECT_THROW(obsgain::model_from_json_text(text, "arm.json"), obsgain::InputError);
+}
+
+TEST(ModelFile, FilesThatCannotBeReadOrParsed) {
+  EXPECT_THROW(obsgain::load_robot({"/nonexistent/robot.json"}), obsgain::InputError);
+  const std::string broken = ::testing::TempDir() + "/obsgain_broken.json";
+  std::ofstream(broken) << "{\"name\": \"arm\", \"type\": ";
+  try {
+    obsgain::load_robot({broken});
+    FAIL();
+  } catch (const obsgain::InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("not valid JSON"), std::string::npos) << e.what();
+  }
+}
+
+TEST(ModelFile, WithoutVelocityBoundsTheDesignAsksForThem) {
+  auto j = valid();
+  j.erase("velocity_bounds");
+  const obsgain::Model model = obsgain::model_from_json_text(j.dump(), "arm.json");
+  obsgain::DesignOptions options;
+  options.gamma = 1.0;
+  options.bound_method = obsgain::BoundMethod::numeric;
+  try {
+    obsgain::design_gains(model, options);
+    FAIL();
+  } catch (const obsgain::InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("--vmax"), std::string::npos) << e.what();
+  }
+  options.velocity_bounds = Eigen::Vector2d(3, 4);
+  EXPECT_TRUE(obsgain::design_gains(model, options).selected().observer.certified);
+}
+
+}  // namespace

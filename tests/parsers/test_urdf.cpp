@@ -1,0 +1,209 @@
+// Robots from URDF: the Pendubot written as a URDF against the built-in model, the physics of a spatial
+// arm against an identity it must satisfy, the bounds against a brute-force grid, and malformed files.
+// (KDL cross-checks and the quirks of real arms' files: test_serial_chain.cpp.)
+#include "test_files.hpp"
+#include "obsgain/bounds/bounds.hpp"
+#include "obsgain/validation/montecarlo.hpp"
+#include "obsgain/model/dynamics.hpp"
+#include "obsgain/parsers/robots.hpp"
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+namespace {
+
+using obsgain_test::read_text;
+using obsgain_test::write_temp_file;
+
+const std::string examples = OBSGAIN_EXAMPLES_DIR;
+
+TEST(Urdf, PendubotUrdfHasThePendubotsDynamics) {
+  const obsgain::Model urdf = obsgain::load_robot({examples + "/pendubot.urdf"});
+  const obsgain::Model builtin = obsgain::pendubot();
+  ASSERT_EQ(urdf.dof(), 2);
+  EXPECT_EQ(urdf.velocity_bounds, builtin.velocity_bounds);
+  EXPECT_TRUE(urdf.joints[0].continuous && urdf.joints[1].continuous);
+  EXPECT_EQ(obsgain::configuration_joints(urdf), std::vector<int>{1});
+  for (const Eigen::Vector2d q : {Eigen::Vector2d(0.3, -2.0), Eigen::Vector2d(-1.2, 0.9), Eigen::Vector2d(2.5, 3.1)}) {
+    const Eigen::Vector2d v(4.0, -7.0);
+    Eigen::MatrixXd M_urdf(2, 2), M_builtin(2, 2);
+    Eigen::VectorXd A_urdf(2), A_builtin(2), g_urdf(2), g_builtin(2);
+    obsgain::mass_matrix(urdf, q, M_urdf);
+    obsgain::mass_matrix(builtin, q, M_builtin);
+    obsgain::coriolis(urdf, q, v, A_urdf);
+    obsgain::coriolis(builtin, q, v, A_builtin);
+    obsgain::gravity(urdf, q, g_urdf);
+    obsgain::gravity(builtin, q, g_builtin);
+    EXPECT_LE((M_urdf - M_builtin).norm(), 1e-14 * M_builtin.norm()) << q.transpose();
+    EXPECT_LE((A_urdf - A_builtin).norm(), 1e-13 * A_builtin.norm()) << q.transpose();
+    EXPECT_LE((g_urdf - g_builtin).norm(), 1e-13 * g_builtin.norm()) << q.transpose();
+    // The chain's tensors come from polarisation of Newton–Euler passes.
+    std::vector<Eigen::MatrixXd> N_urdf, N_builtin;
+    obsgain::coriolis_tensors(urdf, q, N_urdf);
+    obsgain::coriolis_tensors(builtin, q, N_builtin);
+    for (int i = 0; i < 2; ++i) EXPECT_LE((N_urdf[i] - N_builtin[i]).norm(), 1e-15) << q.transpose();
+  }
+}
+
+TEST(Urdf, PendubotUrdfGivesThePendubotsBounds) {
+  const obsgain::Model urdf = obsgain::load_robot({examples + "/pendubot.urdf"});
+  const obsgain::BoundReport r = obsgain::compute_bounds(urdf, urdf.velocity_bounds);
+  // The built-in Pendubot's values (docs/reproduction.md; certified brackets in test_certified_bounds).
+  EXPECT_NEAR(r.M0.value, 285.7397981, 1e-6 * 285.74);
+  EXPECT_NEAR(r.B.value, 0.4347667, 1e-6 * 0.4348);
+  EXPECT_NEAR(r.L_joint.value, 43.3474691, 1e-6 * 43.35);
+  EXPECT_NEAR(r.L_paper, 124.2301394, 1e-6 * 124.23);
+}
+
+// vᵀ A(q, v) = ½ vᵀ Ṁ(q) v (Ṁ - 2C is skew-symmetric): the Coriolis term against the derivative of the
+// mass matrix, by central differences along v (with the arms' rotor inertia, which KDL does not model).
+TEST(Urdf, CoriolisIsConsistentWithTheMassMatrix) {
+  for (const char* file : {"arm3.urdf", "arm6.urdf"}) {
+    const obsgain::Model model = obsgain::load_robot({examples + "/" + file});
+    const int n = model.dof();
+    const Eigen::VectorXd q = Eigen::VectorXd::LinSpaced(n, -0.8, 1.3);
+    const Eigen::VectorXd v = Eigen::VectorXd::LinSpaced(n, 1.5, -2.0);
+    Eigen::MatrixXd M_plus(n, n), M_minus(n, n);
+    const double h = 1e-5;
+    obsgain::mass_matrix(model, q + h * v, M_plus);
+    obsgain::mass_matrix(model, q - h * v, M_minus);
+    const Eigen::MatrixXd M_dot = (M_plus - M_minus) / (2.0 * h);
+    Eigen::VectorXd A(n);
+    obsgain::coriolis(model, q, v, A);
+    const double power = v.dot(A), expected = 0.5 * v.dot(M_dot * v);
+    EXPECT_NEAR(power, expected, 1e-7 * (std::abs(expected) + 1.0)) << file;
+    EXPECT_GT(std::abs(expected), 1e-3) << file;  // the identity is not trivially 0 = 0 here
+  }
+}
+
+TEST(Urdf, JointDomainsVelocityLimitsDampingAndActuationComeFromTheFile) {
+  const obsgain::Model arm = obsgain::load_robot({examples + "/arm3.urdf"});
+  ASSERT_EQ(arm.dof(), 3);
+  EXPECT_TRUE(arm.joints[0].continuous);
+  EXPECT_FALSE(arm.joints[1].continuous);
+  EXPECT_DOUBLE_EQ(arm.joints[1].lower, -2.0);
+  EXPECT_DOUBLE_EQ(arm.joints[2].upper, 2.6);
+  EXPECT_EQ(arm.velocity_bounds, Eigen::Vector3d(3.0, 3.0, 4.0));
+  EXPECT_EQ(arm.friction, Eigen::MatrixXd(Eigen::Vector3d(0.2, 0.1, 0.05).asDiagonal()));
+  EXPECT_EQ(arm.input_matrix, Eigen::MatrixXd::Identity(3, 3));
+  EXPECT_EQ(obsgain::configuration_joints(arm), (std::vector<int>{1, 2}));
+
+  const obsgain::Model pendubot = obsgain::load_robot({examples + "/pendubot.urdf", "", "", {1, 0}});
+  EXPECT_EQ(pendubot.input_matrix, Eigen::MatrixXd(Eigen::Vector2d(1.0, 0.0)));
+  // A sub-chain: base to the upper arm only.
+  const obsgain::Model shoulder = obsgain::load_robot({examples + "/arm3.urdf", "base_link", "upper_arm", {}});
+  EXPECT_EQ(shoulder.dof(), 2);
+}
+
+// The numeric suprema against the largest value on a grid over (q2, q3), all vertices and patterns: never
+// below it, and not above it by more than the grid's resolution can hide.
+TEST(Urdf, BoundsOfTheThreeJointArmAgainstAGrid) {
+  const obsgain::Model arm = obsgain::load_robot({examples + "/arm3.urdf"});
+  const obsgain::BoundReport r = obsgain::compute_bounds(arm, arm.velocity_bounds);
+  const Eigen::MatrixXd vertices = obsgain::box_vertices(arm.velocity_bounds);
+  double M0 = 0.0, B = 0.0, L = 0.0;
+  const int steps = 24;
+  for (int a = 0; a <= steps; ++a) {
+    for (int b = 0; b <= steps; ++b) {
+      const Eigen::Vector3d q(0.0, -2.0 + 4.0 * a / steps, -2.6 + 5.2 * b / steps);
+      M0 = std::max(M0, obsgain::inverse_inertia_norm(arm, q));
+      for (Eigen::Index c = 0; c < vertices.cols(); ++c) {
+        B = std::max(B, obsgain::coriolis_jacobian_norm(arm, q, vertices.col(c)));
+        for (Eigen::Index s = 0; s < vertices.cols(); ++s) {
+          const Eigen::Vector3d pattern = (vertices.col(s).array() > 0.0).cast<double>();
+          L = std::max(L, obsgain::joint_lipschitz_norm(arm, q, vertices.col(c), pattern));
+        }
+      }
+    }
+  }
+  for (const auto& [name, search, grid] : {std::tuple{"M0", r.M0.value, M0}, std::tuple{"B", r.B.value, B},
+                                           std::tuple{"L_joint", r.L_joint.value, L}}) {
+    EXPECT_GE(search, grid * (1.0 - 1e-12)) << name;
+    EXPECT_LE(search, grid * 1.05) << name;
+  }
+  EXPECT_LE(r.L_joint.value, r.L_paper);
+}
+
+// Fully actuated: the computed-torque law makes the plant follow its reference exactly (it starts on it).
+TEST(Urdf, MonteCarloTracksReferencesWithComputedTorque) {
+  const obsgain::Model arm = obsgain::load_robot({examples + "/arm3.urdf"});
+  obsgain::MonteCarloOptions options;
+  options.simulation.horizon = 0.5;
+  const obsgain::TrialSetup trial = obsgain::make_trial(arm, arm.velocity_bounds, options, 3, 1.0);
+  ASSERT_TRUE(trial.input.reference.active());
+  obsgain::CertifiedObserver observer;
+  observer.k1 = 60.0;
+  observer.k2 = 3600.0;
+  observer.gamma = 1.0;
+  observer.k = 100.0;
+  observer.P = Eigen::MatrixXd::Identity(6, 6);
+  observer.velocity_bounds = arm.velocity_bounds;
+  const obsgain::ObserverCertificate certificate{observer, std::nullopt};
+  obsgain::TrialRecord record;
+  record.index = 3;
+  const auto samples = obsgain::trial_trajectory(arm, certificate, options, record);
+  ASSERT_GT(samples.size(), 400u);
+  double tracking_error = 0.0, speed = 0.0;
+  Eigen::VectorXd q_r(3), v_r(3), a_r(3);
+  for (const auto& s : samples) {
+    trial.input.reference.evaluate(s.t, q_r, v_r, a_r);
+    tracking_error = std::max(tracking_error, (s.q - q_r).norm());
+    speed = std::max(speed, (s.v.array().abs() / arm.velocity_bounds.array()).maxCoeff());
+  }
+  EXPECT_LT(tracking_error, 1e-6);
+  EXPECT_LT(speed, 0.6 + 1e-9);  // the reference's speed budget
+  EXPECT_GT(speed, 0.05);
+}
+
+const std::string two_links = R"(<?xml version="1.0"?>
+<robot name="r">
+  <link name="base"/>
+  <joint name="j1" type="continuous"><parent link="base"/><child link="l1"/><axis xyz="0 -1 0"/></joint>
+  <link name="l1"><inertial><origin xyz="0.2 0 0"/><mass value="1"/>
+    <inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial></link>
+  <joint name="j2" type="continuous"><parent link="l1"/><child link="l2"/><origin xyz="0.3 0 0"/>
+    <axis xyz="0 -1 0"/></joint>
+  <link name="l2">L2_INERTIAL</link>
+</robot>)";
+
+std::string with_second_link(const std::string& inertial) {
+  std::string text = two_links;
+  text.replace(text.find("L2_INERTIAL"), 11, inertial);
+  return text;
+}
+
+void expect_refused(const obsgain::RobotSource& source, const std::string& names) {
+  try {
+    obsgain::load_robot(source);
+    ADD_FAILURE() << source.robot << " should be refused";
+  } catch (const obsgain::InputError& e) {
+    EXPECT_NE(std::string(e.what()).find(names), std::string::npos) << "'" << e.what() << "' should name " << names;
+  }
+}
+
+TEST(Urdf, MalformedFilesAreRefusedNamingTheProblem) {
+  const std::string good = write_temp_file("good.urdf", with_second_link(
+      R"(<inertial><origin xyz="0.1 0 0"/><mass value="0.5"/><inertia ixx="0.001" ixy="0" ixz="0" iyy="0.001" iyz="0" izz="0.001"/></inertial>)"));
+  EXPECT_EQ(obsgain::load_robot({good}).dof(), 2);
+
+  expect_refused({"/nonexistent/arm.urdf"}, "cannot read URDF file '/nonexistent/arm.urdf'");
+  expect_refused({write_temp_file("broken.urdf", "<robot name='r'><link name='a'></robot>")}, "broken XML at line 1");
+  expect_refused({write_temp_file("not_urdf.urdf", "<robot name='r'><joint name='j' type='revolute'/></robot>")},
+                 "not a valid URDF");
+  expect_refused({good, "base", "forearm", {}}, "no link 'forearm'");
+  expect_refused({good, "l2", "base", {}}, "no chain from 'l2' down to 'base'");
+  expect_refused({good, "", "", {1}}, "the chain has 2 joints, got 1 flags");
+  expect_refused({good, "", "", {1, 2}}, "flag 2 = 2 must be 0 or 1");
+  // The last link carries nothing: joint j2 moves no inertia and M(q) is singular.
+  expect_refused({write_temp_file("massless.urdf", with_second_link(""))}, "joint 'j2' moves no mass or inertia");
+  expect_refused({write_temp_file("zero_mass.urdf", with_second_link(
+                     R"(<inertial><mass value="0"/><inertia ixx="0" ixy="0" ixz="0" iyy="0" iyz="0" izz="0"/></inertial>)"))},
+                 "joint 'j2' moves no mass or inertia");
+  std::string unlimited = two_links;
+  unlimited.replace(unlimited.find(R"(name="j2" type="continuous")"), 27, R"(name="j2" type="revolute")");
+  expect_refused({write_temp_file("unlimited.urdf", unlimited)}, "not a valid URDF: Joint [j2] is of type REVOLUTE but it does not specify limits");
+  expect_refused({examples + "/pendubot.json", "", "", {1, 0}}, "apply to URDF robots only");
+}
+
+}  // namespace

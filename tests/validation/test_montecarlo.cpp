@@ -1,0 +1,105 @@
+#include "obsgain/validation/montecarlo.hpp"
+
+#include <gtest/gtest.h>
+
+namespace {
+
+obsgain::ObserverCertificate design(const obsgain::Model& model, obsgain::DesignOptions options) {
+  return obsgain::observer_certificate({obsgain::design_gains(model, options), std::nullopt});
+}
+
+obsgain::DesignOptions at_theta(double theta) {
+  obsgain::DesignOptions o;
+  o.bound_method = obsgain::BoundMethod::numeric;  // bounds are not under test here
+  o.theta = theta;
+  return o;
+}
+
+TEST(MonteCarlo, CertifiedDesignPasses1000Trials) {
+  const obsgain::Model model = obsgain::pendubot();
+  obsgain::MonteCarloOptions options;
+  options.trials = 1000;
+  options.simulation.horizon = 0.4;
+  const auto report = obsgain::run_monte_carlo(model, design(model, at_theta(200.0)), options);
+  EXPECT_EQ(report.envelope_violations, 0);
+  EXPECT_EQ(report.lyapunov_violations, 0);
+  EXPECT_TRUE(report.certificate_held());
+  EXPECT_LE(report.worst_envelope_ratio, 1.0);
+  EXPECT_EQ(report.passed + report.assumption_violations, 1000);
+  EXPECT_GT(report.passed, 900);
+  // The observer really decays faster than certified (γ = 72.5 with L_joint), not slower.
+  EXPECT_GT(report.decay_rate.min, report.certificate.observer.gamma);
+}
+
+TEST(MonteCarlo, LeavingTheVelocityBoxIsAnAssumptionViolation) {
+  const obsgain::Model model = obsgain::pendubot();
+  obsgain::DesignOptions o = at_theta(200.0);
+  o.velocity_bounds = Eigen::Vector2d(1, 1);
+  obsgain::MonteCarloOptions options;
+  options.trials = 40;
+  options.scenario = obsgain::Scenario::paper;
+  options.simulation.horizon = 0.5;
+  const auto report = obsgain::run_monte_carlo(model, design(model, o), options);
+  EXPECT_EQ(report.assumption_violations, 40);
+  EXPECT_EQ(report.passed, 0);
+  EXPECT_EQ(report.envelope_violations, 0);
+}
+
+TEST(MonteCarlo, SameSeedSameReportWhateverTheThreadCount) {
+  const obsgain::Model model = obsgain::pendubot();
+  const obsgain::ObserverCertificate c = design(model, at_theta(150.0));
+  obsgain::MonteCarloOptions options;
+  options.trials = 40;
+  options.seed = 42;
+  options.simulation.horizon = 0.3;
+  options.threads = 1;
+  const auto one = obsgain::run_monte_carlo(model, c, options);
+  options.threads = 2;
+  const auto two = obsgain::run_monte_carlo(model, c, options);
+  EXPECT_EQ(one.threads, 1);
+  EXPECT_EQ(two.threads, 2);
+  ASSERT_EQ(one.records.size(), two.records.size());
+  for (std::size_t i = 0; i < one.records.size(); ++i) {
+    EXPECT_EQ(one.records[i].result.worst_envelope_ratio, two.records[i].result.worst_envelope_ratio);
+    EXPECT_EQ(one.records[i].result.fitted_rate, two.records[i].result.fitted_rate);
+    EXPECT_EQ(one.records[i].result.steps, two.records[i].result.steps);
+  }
+  EXPECT_EQ(one.decay_rate.median, two.decay_rate.median);
+  options.seed = 43;
+  const auto other = obsgain::run_monte_carlo(model, c, options);
+  EXPECT_NE(other.decay_rate.median, one.decay_rate.median);
+}
+
+// L overridden far too small: the design claims a rate its gains cannot deliver, and the check says so.
+TEST(MonteCarlo, UnderGainedDesignIsCaught) {
+  const obsgain::Model model = obsgain::pendubot();
+  obsgain::DesignOptions o;
+  o.bound_method = obsgain::BoundMethod::numeric;  // bounds are not under test here
+  o.gamma = 1.0;
+  o.L_override = 0.01;
+  obsgain::MonteCarloOptions options;
+  options.trials = 50;
+  options.initial_errors = obsgain::InitialErrors::practical;
+  options.simulation.horizon = 3.0;
+  const auto report = obsgain::run_monte_carlo(model, design(model, o), options);
+  EXPECT_GT(report.envelope_violations, 0);
+  EXPECT_GT(report.lyapunov_violations, 0);
+  EXPECT_GT(report.worst_envelope_ratio, 1.2);
+  EXPECT_FALSE(report.certificate_held());
+}
+
+TEST(MonteCarlo, RefusesWhatItCannotValidate) {
+  const obsgain::Model model = obsgain::pendubot();
+  obsgain::DesignOptions o = at_theta(100.0);
+  o.certificate = obsgain::CertificateKind::paper;  // θ = 100 < 2||S||L: nothing certified
+  EXPECT_THROW(design(model, o), obsgain::InputError);
+  const obsgain::ObserverCertificate c = design(model, at_theta(200.0));
+  obsgain::MonteCarloOptions options;
+  options.trials = 0;
+  EXPECT_THROW(obsgain::run_monte_carlo(model, c, options), obsgain::InputError);
+  options.trials = 1;
+  options.simulation.horizon = -1.0;
+  EXPECT_THROW(obsgain::run_monte_carlo(model, c, options), obsgain::InputError);
+}
+
+}  // namespace
