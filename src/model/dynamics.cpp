@@ -11,65 +11,78 @@ constexpr int kMaxFlat = kMaxChainJoints * kMaxChainJoints;
 }  // namespace
 
 void ConfigurationDynamics::set(const Eigen::Ref<const Eigen::VectorXd>& q) noexcept {
-  if (is_planar_2r(model_)) {
-    planar_q_ = {q(0), q(1)};
+  if (planar_parameters_) {
+    // Two sine–cosine pairs for the whole configuration: cos(q1 + q2) = c1 c2 - s1 s2.
+    const double c1 = std::cos(q(0)), s1 = std::sin(q(0)), c2 = std::cos(q(1)), s2 = std::sin(q(1));
+    planar_.M = planar_2r_mass_matrix(*planar_parameters_, c2);
+    planar_.N = planar_2r_coriolis_tensors(*planar_parameters_, s2);
+    planar_.g = planar_2r_gravity(*planar_parameters_, c1, c1 * c2 - s1 * s2);
     return;
   }
-  chain_kinematics(std::get<SerialChain>(model_.structure), q.data(), kinematics_);
+  chain_kinematics(*chain_, q.data(), kinematics_);
 }
 
 void ConfigurationDynamics::mass_matrix(Eigen::Ref<Eigen::MatrixXd> M) const noexcept {
-  const int n = model_.dof();
+  if (planar_parameters_) {
+    M = planar_.M;
+    return;
+  }
+  const int n = chain_->dof();
   std::array<double, kMaxFlat> flat;
-  if (is_planar_2r(model_))
-    mass_matrix_of(model_, planar_q_.data(), flat.data());
-  else
-    chain_mass_matrix(std::get<SerialChain>(model_.structure), kinematics_, flat.data());
+  chain_mass_matrix(*chain_, kinematics_, flat.data());
   for (int i = 0; i < n; ++i)
     for (int j = 0; j < n; ++j) M(i, j) = flat[i * n + j];
 }
 
 void ConfigurationDynamics::gravity(Eigen::Ref<Eigen::VectorXd> g) const noexcept {
+  if (planar_parameters_) {
+    g = planar_.g;
+    return;
+  }
   std::array<double, kMaxChainJoints> out;
-  if (is_planar_2r(model_))
-    gravity_of(model_, planar_q_.data(), out.data());
-  else
-    chain_gravity(std::get<SerialChain>(model_.structure), kinematics_, out.data());
-  for (int i = 0; i < model_.dof(); ++i) g(i) = out[i];
+  chain_gravity(*chain_, kinematics_, out.data());
+  for (int i = 0; i < chain_->dof(); ++i) g(i) = out[i];
 }
 
 void ConfigurationDynamics::coriolis(const Eigen::Ref<const Eigen::VectorXd>& v, Eigen::Ref<Eigen::VectorXd> A) const noexcept {
-  if (const auto* p = std::get_if<Planar2RParameters>(&model_.structure)) {
-    const double h = p->pi[2] * std::sin(planar_q_[1]);
-    A(0) = -h * (2.0 * v(0) * v(1) + v(1) * v(1));
-    A(1) = h * v(0) * v(0);
+  coriolis_bilinear(v, v, A);
+}
+
+void ConfigurationDynamics::bias_forces(const Eigen::Ref<const Eigen::VectorXd>& v,
+                                        Eigen::Ref<Eigen::VectorXd> out) const noexcept {
+  if (planar_parameters_) {
+    coriolis_bilinear(v, v, out);
+    out(0) += planar_.g(0);
+    out(1) += planar_.g(1);
     return;
   }
-  const SerialChain& chain = std::get<SerialChain>(model_.structure);
-  std::array<double, kMaxChainJoints> out;
-  chain_coriolis(chain, kinematics_, v.data(), out.data());
-  for (int i = 0; i < chain.dof(); ++i) A(i) = out[i];
+  std::array<double, kMaxChainJoints> tau;
+  chain_bias_forces(*chain_, kinematics_, v.data(), tau.data());
+  for (int i = 0; i < chain_->dof(); ++i) out(i) = tau[i];
 }
 
 void ConfigurationDynamics::coriolis_bilinear(const Eigen::Ref<const Eigen::VectorXd>& x,
                                               const Eigen::Ref<const Eigen::VectorXd>& y,
                                               Eigen::Ref<Eigen::VectorXd> out) const noexcept {
-  if (const auto* p = std::get_if<Planar2RParameters>(&model_.structure)) {
+  if (planar_parameters_) {
     // From the analytic tensors: exact however small x is.
-    const auto tensors = planar_2r_coriolis_tensors(*p, planar_q_[1]);
-    const Eigen::Vector2d x2 = x, y2 = y;
-    out(0) = x2.dot(tensors[0] * y2);
-    out(1) = x2.dot(tensors[1] * y2);
+    for (int i = 0; i < 2; ++i) {
+      const Eigen::Matrix2d& N = planar_.N[i];
+      out(i) = x(0) * (N(0, 0) * y(0) + N(0, 1) * y(1)) + x(1) * (N(1, 0) * y(0) + N(1, 1) * y(1));
+    }
     return;
   }
-  const SerialChain& chain = std::get<SerialChain>(model_.structure);
-  ChainVelocities<double> wx, wy;
-  chain_velocities(chain, kinematics_, x.data(), wx);
-  chain_velocities(chain, kinematics_, y.data(), wy);
-  const std::array<double, kMaxChainJoints> zero{};
   std::array<double, kMaxChainJoints> tau;
-  chain_forces(chain, kinematics_, wx, wy, x.data(), y.data(), zero.data(), false, tau.data());
-  for (int i = 0; i < chain.dof(); ++i) out(i) = tau[i];
+  if (x.data() == y.data()) {
+    chain_coriolis(*chain_, kinematics_, x.data(), tau.data());
+  } else {
+    ChainVelocities<double> wx, wy;
+    chain_velocities(*chain_, kinematics_, x.data(), wx);
+    chain_velocities(*chain_, kinematics_, y.data(), wy);
+    const std::array<double, kMaxChainJoints> zero{};
+    chain_forces(*chain_, kinematics_, wx, wy, x.data(), y.data(), zero.data(), false, tau.data());
+  }
+  for (int i = 0; i < chain_->dof(); ++i) out(i) = tau[i];
 }
 
 void mass_matrix(const Model& model, const Eigen::Ref<const Eigen::VectorXd>& q, Eigen::Ref<Eigen::MatrixXd> M) {

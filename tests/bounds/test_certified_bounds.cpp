@@ -39,7 +39,7 @@ TEST(PendubotBrackets, ContainTheDesignNotesValuesWithGap1e6) {
   expect_brackets(pendubot_brackets().B, 0.4347667);
   expect_brackets(pendubot_brackets().L_joint, 43.3475);
   // Closed forms: M0 = 1/λmin(M(q2 = 0)), B = 2 π3 · 10 · sqrt(3 + √5).
-  const Eigen::Matrix2d M = obsgain::planar_2r_mass_matrix<double>({{0.0308, 0.0106, 0.0095, 0.2086, 0.0630}}, 0.0);
+  const Eigen::Matrix2d M = obsgain::planar_2r_mass_matrix<double>({{0.0308, 0.0106, 0.0095, 0.2086, 0.0630}}, 1.0);
   const double M0 = 1.0 / Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(M).eigenvalues()(0);
   EXPECT_LE(pendubot_brackets().M0.lower, M0 * (1 + 1e-14));
   EXPECT_GE(pendubot_brackets().M0.upper, M0);

@@ -12,6 +12,7 @@
 
 #include <array>
 #include <cmath>
+#include <type_traits>
 
 namespace obsgain {
 
@@ -53,14 +54,22 @@ Vec3<S> rotate(const Eigen::Matrix3d& R, const Vec3<S>& v) {
   for (int i = 0; i < 3; ++i) r[i] = R(i, 0) * v[0] + R(i, 1) * v[1] + R(i, 2) * v[2];
   return r;
 }
+// Rᵀ v.
+template <class S>
+Vec3<S> rotate_back(const Eigen::Matrix3d& R, const Vec3<S>& v) {
+  Vec3<S> r;
+  for (int i = 0; i < 3; ++i) r[i] = R(0, i) * v[0] + R(1, i) * v[1] + R(2, i) * v[2];
+  return r;
+}
 template <class S>
 S dot(const Eigen::Vector3d& a, const Vec3<S>& b) {
   return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
 }
 // ½ (a_x × b_y + a_y × b_x): the symmetrised product of two quantities linear in the joint velocities.
-// `same`: x and y are one velocity, and the product is computed once.
+// `same`: x and y are one velocity, and the product is computed once. Always inlined: the recursions call it a
+// few times per body, and its call would cost more than its arithmetic.
 template <class S>
-Vec3<S> symmetric_cross(const Vec3<S>& ax, const Vec3<S>& by, const Vec3<S>& ay, const Vec3<S>& bx, bool same) {
+[[gnu::always_inline]] inline Vec3<S> symmetric_cross(const Vec3<S>& ax, const Vec3<S>& by, const Vec3<S>& ay, const Vec3<S>& bx, bool same) {
   if (same) return cross(ax, by);
   return times(0.5, add(cross(ax, by), cross(ay, bx)));
 }
@@ -69,13 +78,16 @@ Vec3<S> symmetric_cross(const Vec3<S>& ax, const Vec3<S>& by, const Vec3<S>& ay,
 
 // Where each body sits relative to its parent at q. Body i's frame maps into body i-1's by P_i Rot(a_i, q_i)
 // (revolute) or P_i (prismatic), P_i the joint's constant placement; p[i] is body i's origin in body i-1's
-// frame. The rotation is kept factored — P_i applied in double, Rot by Rodrigues with cos q_i and sin q_i —
-// rather than multiplied out: on intervals a multiplied-out 3 x 3 matrix forgets that its entries share one
-// angle, and the enclosures of a long chain blow up (the wrapping effect).
+// frame. On enclosures the rotation is kept factored — P_i applied in double, Rot by Rodrigues with cos q_i and
+// sin q_i and the axis's projectors in double — rather than multiplied out: a multiplied-out 3 x 3 matrix of
+// intervals forgets that its entries share one angle, and the enclosures of a long chain blow up (the wrapping
+// effect). In double nothing is lost by multiplying out, and a frame change is then one 3 x 3 product: the
+// real-time observer's update relies on it.
 template <class S>
 struct ChainKinematics {
   std::array<S, kMaxChainJoints> c, s;
   std::array<Vec3<S>, kMaxChainJoints> p;
+  std::array<Eigen::Matrix3d, kMaxChainJoints> rotation;  // double only: P_i Rot(a_i, q_i)
 };
 
 template <class S>
@@ -93,6 +105,13 @@ void chain_kinematics(const SerialChain& chain, const S* q, ChainKinematics<S>& 
       k.s[i] = S(0.0);
       const Eigen::Vector3d Pa = joint.rotation * joint.axis;
       for (int r = 0; r < 3; ++r) k.p[i][r] = joint.translation[r] + Pa[r] * q[i];
+    }
+    if constexpr (std::is_same_v<S, double>) {
+      const Eigen::Vector3d& a = joint.axis;
+      Eigen::Matrix3d skew;
+      skew << 0.0, -a.z(), a.y(), a.z(), 0.0, -a.x(), -a.y(), a.x(), 0.0;
+      const Eigen::Matrix3d along = a * a.transpose();
+      k.rotation[i] = joint.rotation * (along + k.c[i] * (Eigen::Matrix3d::Identity() - along) + k.s[i] * skew);
     }
   }
 }
@@ -114,11 +133,13 @@ Vec3<S> rodrigues(const Eigen::Vector3d& a, const S& c, const S& s, const Vec3<S
 // From body i's frame into body i-1's, and back.
 template <class S>
 Vec3<S> to_parent(const SerialChain& chain, const ChainKinematics<S>& k, int i, const Vec3<S>& v) {
+  if constexpr (std::is_same_v<S, double>) return rotate(k.rotation[i], v);
   const ChainJoint& joint = chain.joints[i];
   return rotate(joint.rotation, joint.type == JointType::revolute ? rodrigues(joint.axis, k.c[i], k.s[i], v, 1.0) : v);
 }
 template <class S>
 Vec3<S> from_parent(const SerialChain& chain, const ChainKinematics<S>& k, int i, const Vec3<S>& v) {
+  if constexpr (std::is_same_v<S, double>) return rotate_back(k.rotation[i], v);
   const ChainJoint& joint = chain.joints[i];
   const Vec3<S> u = rotate(Eigen::Matrix3d(joint.rotation.transpose()), v);
   return joint.type == JointType::revolute ? rodrigues(joint.axis, k.c[i], k.s[i], u, -1.0) : u;
@@ -289,6 +310,15 @@ void chain_gravity(const SerialChain& chain, const ChainKinematics<S>& k, S* g) 
   ChainVelocities<S> rest;
   chain_velocities(chain, k, zero.data(), rest);
   chain_forces(chain, k, rest, rest, zero.data(), zero.data(), zero.data(), true, g);
+}
+
+// A(q, v) + g(q), in one pass.
+template <class S>
+void chain_bias_forces(const SerialChain& chain, const ChainKinematics<S>& k, const double* v, S* out) {
+  std::array<double, kMaxChainJoints> zero{};
+  ChainVelocities<S> w;
+  chain_velocities(chain, k, v, w);
+  chain_forces(chain, k, w, w, v, v, zero.data(), true, out);
 }
 
 // A(q, v) = C(q, v) v.

@@ -18,7 +18,8 @@ namespace obsgain {
 template <class S>
 void mass_matrix_of(const Model& model, const S* q, S* M) {
   if (const auto* p = std::get_if<Planar2RParameters>(&model.structure)) {
-    const auto m = planar_2r_mass_matrix(*p, q[1]);
+    using std::cos;
+    const auto m = planar_2r_mass_matrix(*p, S(cos(q[1])));
     for (int i = 0; i < 4; ++i) M[i] = m(i / 2, i % 2);
     return;
   }
@@ -31,7 +32,8 @@ void mass_matrix_of(const Model& model, const S* q, S* M) {
 template <class S>
 void coriolis_tensors_of(const Model& model, const S* q, S* N) {
   if (const auto* p = std::get_if<Planar2RParameters>(&model.structure)) {
-    const auto tensors = planar_2r_coriolis_tensors(*p, q[1]);
+    using std::sin;
+    const auto tensors = planar_2r_coriolis_tensors(*p, S(sin(q[1])));
     for (int i = 0; i < 8; ++i) N[i] = tensors[i / 4]((i / 2) % 2, i % 2);
     return;
   }
@@ -44,7 +46,8 @@ void coriolis_tensors_of(const Model& model, const S* q, S* N) {
 template <class S>
 void gravity_of(const Model& model, const S* q, S* g) {
   if (const auto* p = std::get_if<Planar2RParameters>(&model.structure)) {
-    const auto v = planar_2r_gravity(*p, q[0], q[1]);
+    using std::cos;
+    const auto v = planar_2r_gravity(*p, S(cos(q[0])), S(cos(q[0] + q[1])));
     g[0] = v(0);
     g[1] = v(1);
     return;
@@ -57,23 +60,35 @@ void gravity_of(const Model& model, const S* q, S* g) {
 
 // ---- double ----
 
-// The dynamics at one configuration, evaluated repeatedly: the real-time observer needs M and g once and A at
-// four velocities per instant, and a chain's kinematics (every joint's sine and cosine) are computed once here.
+// The dynamics at one configuration, evaluated repeatedly: the real-time observer needs M once and A + g at
+// four velocities per instant. What depends on q alone is computed once, in set(): a chain's kinematics (every
+// joint's sine, cosine and rotation), the planar family's M, N_i and g.
 class ConfigurationDynamics {
  public:
-  explicit ConfigurationDynamics(const Model& model) : model_(model) {}
+  explicit ConfigurationDynamics(const Model& model)
+      : model_(model), planar_parameters_(std::get_if<Planar2RParameters>(&model.structure)),
+        chain_(std::get_if<SerialChain>(&model.structure)) {}
   void set(const Eigen::Ref<const Eigen::VectorXd>& q) noexcept;
   void mass_matrix(Eigen::Ref<Eigen::MatrixXd> M) const noexcept;
   void gravity(Eigen::Ref<Eigen::VectorXd> g) const noexcept;
   // A(q, v) = C(q, v) v.
   void coriolis(const Eigen::Ref<const Eigen::VectorXd>& v, Eigen::Ref<Eigen::VectorXd> A) const noexcept;
+  // A(q, v) + g(q).
+  void bias_forces(const Eigen::Ref<const Eigen::VectorXd>& v, Eigen::Ref<Eigen::VectorXd> out) const noexcept;
   // out_i = xᵀ N_i(q) y.
   void coriolis_bilinear(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& y,
                          Eigen::Ref<Eigen::VectorXd> out) const noexcept;
 
  private:
+  struct Planar {
+    Eigen::Matrix2d M;
+    std::array<Eigen::Matrix2d, 2> N;
+    Eigen::Vector2d g;
+  };
   const Model& model_;
-  std::array<double, 2> planar_q_{};  // the planar family's (q1, q2)
+  const Planar2RParameters* planar_parameters_;  // one of the two is set
+  const SerialChain* chain_;
+  Planar planar_{};
   ChainKinematics<double> kinematics_{};
 };
 

@@ -16,6 +16,8 @@
 
 #include <Eigen/Dense>
 
+#include <array>
+
 namespace obsgain {
 
 // Sub-steps per sample of length dt: h (k1 + sqrt(k2) + L) <= 1/2. The error dynamics' eigenvalues are at most
@@ -55,35 +57,48 @@ class Observer {
   const CertifiedObserver& gains() const { return gains_; }
 
  private:
+  // The stage arithmetic works on fixed-capacity arrays with plain loops: at the sizes of robot arms a general
+  // vector expression's dispatch costs more than its arithmetic.
+  using Joints = std::array<double, kMaxChainJoints>;
+  using Joints2 = std::array<double, kMaxChainJoints * kMaxChainJoints>;
+
   // What stays fixed at one instant of a sample interval: the interpolated measurement and the model there.
   struct Instant {
-    Eigen::VectorXd y, y_model;  // measurement, and the same clamped into the joint limits
+    Joints y{}, y_model{};  // measurement, and the same clamped into the joint limits
     ConfigurationDynamics dynamics;  // at y_model
     Eigen::MatrixXd M;
-    Eigen::LLT<Eigen::MatrixXd> llt;
-    Eigen::VectorXd g, bias;     // g(y_model), and H u - g(y_model)
-    explicit Instant(const Model& model)
-        : y(model.dof()), y_model(model.dof()), dynamics(model), M(model.dof(), model.dof()), llt(model.dof()),
-          g(model.dof()), bias(model.dof()) {}
+    Joints2 inverse{};  // M(y_model)⁻¹, row-major: computed once per instant, used by its stages
+
+    explicit Instant(const Model& model) : dynamics(model), M(model.dof(), model.dof()) {}
   };
 
+  // N: the joint count when it is compiled in (the loops then unroll), 0 for any.
+  template <int N>
+  void integrate(double dt, int steps) noexcept;
+  template <int N>
   void freeze(double fraction, Instant& instant) noexcept;
-  void derivative(const Instant& instant, const Eigen::VectorXd& q, const Eigen::VectorXd& v, Eigen::VectorXd& dq,
-                  Eigen::VectorXd& dv) noexcept;
+  template <int N>
+  void invert(Instant& instant) noexcept;
+  template <int N>
+  void derivative(const Instant& instant, const Joints& q, const Joints& v, Joints& dq, Joints& dv) noexcept;
+  template <int N>
+  void step(Instant& start, Instant& end, double h) noexcept;  // one RK4 sub-step from start to end
 
   const Model& model_;
   CertifiedObserver gains_;
   int substeps_;
   int n_;
-  Eigen::VectorXd lower_, upper_;  // joint limits (±∞ for continuous joints)
-  Eigen::VectorXd q_hat_, v_hat_, y_previous_, y_current_, u_, Hu_;
+  Joints lower_{}, upper_{};  // joint limits (±∞ for continuous joints)
+  Eigen::VectorXd q_hat_, v_hat_;
+  Joints y_previous_{}, y_current_{}, Hu_{};
   Instant start_, middle_, end_;
   // Which of start_ (0) and end_ (1) holds the model at the last measurement (-1: none since reset): the next
-  // update starts there, so only the input's part of it is new.
+  // update starts there: M(y) and its factorisation are reused, the input enters each stage afresh.
   int last_instant_ = -1;
   bool started_ = false;  // reset() has given the first sample
-  Eigen::VectorXd saturated_, coriolis_;
-  Eigen::VectorXd k1q_, k1v_, k2q_, k2v_, k3q_, k3v_, k4q_, k4v_, q_stage_, v_stage_;
+  Eigen::VectorXd saturated_, bias_;
+  std::array<Joints, 4> kq_{}, kv_{};
+  Joints q_stage_{}, v_stage_{};
 };
 
 }  // namespace obsgain
