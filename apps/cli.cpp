@@ -38,8 +38,10 @@ Eigen::VectorXd parse_number_list(const std::string& name, const std::string& te
   return Eigen::Map<Eigen::VectorXd>(values.data(), static_cast<Eigen::Index>(values.size()));
 }
 
-void add_design_options(CLI::App& app, DesignArguments& a) {
-  const std::size_t before = app.get_options().size();
+namespace {
+
+// Which robot, and its velocity box.
+void add_robot_options(CLI::App& app, DesignArguments& a) {
   app.add_option("--robot", a.robot, "built-in robot name (pendubot), model file (*.json) or URDF (*.urdf)")
       ->capture_default_str()
       ->type_name("NAME|FILE");
@@ -57,6 +59,10 @@ void add_design_options(CLI::App& app, DesignArguments& a) {
       ->type_name("LO:HI|c,...");
   app.add_option("--vmax", a.vmax, "velocity bounds V1,...,Vn [rad/s] (default: the model's)")
       ->type_name("RAD_S,...");
+}
+
+// What to certify and how: rate or gain, shape, Lipschitz constant, certificate, bounds.
+void add_certificate_options(CLI::App& app, DesignArguments& a) {
   app.add_option("--gamma", a.gamma, "target convergence rate [1/s]: theta is the smallest gain certifying it (give exactly one of --gamma, --theta)")
       ->type_name("RATE");
   app.add_option("--theta", a.theta, "evaluate this gain theta and report the certified rate (exactly one of --gamma, --theta)")
@@ -84,7 +90,13 @@ void add_design_options(CLI::App& app, DesignArguments& a) {
                  "certified bounds: wall-time budget in seconds for the interval search (default 120; 0: until the "
                  "gap target); the design uses the proven upper ends reached, whatever the gap")
       ->type_name("SECONDS");
-  app.add_flag("--quiet", a.quiet, "no progress lines on stderr");
+  app.add_option("--rate-margin", a.rate_margin,
+                 "tight certificate: P is computed at gamma_sup (1 - margin) (default 0.01)")
+      ->type_name("FRACTION");
+}
+
+// The observer as deployed: sampled, quantised, late.
+void add_deployment_options(CLI::App& app, DesignArguments& a) {
   app.add_option("--sample-period", a.sample_period,
                  "deployment: the observer runs every T seconds on encoder counts; adds the sampled, quantised "
                  "certificate (needs --encoder-counts and --acceleration-bounds)")
@@ -108,9 +120,16 @@ void add_design_options(CLI::App& app, DesignArguments& a) {
       ->check(CLI::IsMember({"rate", "velocity-error"}))
       ->capture_default_str()
       ->type_name("rate|velocity-error");
-  app.add_option("--rate-margin", a.rate_margin,
-                 "tight certificate: P is computed at gamma_sup (1 - margin) (default 0.01)")
-      ->type_name("FRACTION");
+}
+
+}  // namespace
+
+void add_design_options(CLI::App& app, DesignArguments& a) {
+  const std::size_t before = app.get_options().size();
+  add_robot_options(app, a);
+  add_certificate_options(app, a);
+  app.add_flag("--quiet", a.quiet, "no progress lines on stderr");
+  add_deployment_options(app, a);
   const auto options = app.get_options();
   a.given.assign(options.begin() + static_cast<std::ptrdiff_t>(before), options.end());
 }
@@ -311,6 +330,7 @@ ValidationTarget load_validation_target(const DesignArguments& design, const std
     Model model = load_robot(to_robot_source(design));
     const DesignRequest request = to_design_request(design, model);
     const DeployedDesign d = design_observer(model, request.design, request.deployment);
+    if (!d.design.unfinished.empty()) throw UnmetRequest(d.design.unfinished);
     ObserverCertificate certificate = observer_certificate(d);  // refuses a design with no rate: one error line
     close_progress_line();
     std::cerr << format_warnings(d.design);
@@ -365,6 +385,10 @@ int run_app(CLI::App& app, int argc, char** argv, const std::function<int()>& bo
     close_progress_line();
     std::cerr << app.get_name() << ": error: " << e.what() << "\n";
     return 2;
+  } catch (const UnmetRequest& e) {
+    close_progress_line();
+    std::cerr << app.get_name() << ": error: " << e.what() << "\n";
+    return 1;
   } catch (const std::exception& e) {
     close_progress_line();
     std::cerr << app.get_name() << ": internal error: " << e.what() << "\n";

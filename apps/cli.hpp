@@ -65,7 +65,14 @@ Eigen::VectorXd parse_number_list(const std::string& name, const std::string& te
 // Clears the terminal's progress line (written in place while searches run) before other output.
 void close_progress_line();
 
-// Runs an app's body: bad input (InputError, CLI11 parse errors) prints one line on stderr and exits 2;
+// A request that cannot be met (or proven within the budget): the apps exit 1 with its message.
+class UnmetRequest : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// Runs an app's body: bad input (InputError, CLI11 parse errors) prints one line on stderr and exits 2; an
+// UnmetRequest exits 1;
 // --help prints and exits 0; anything else unexpected prints and exits 3.
 int run_app(CLI::App& app, int argc, char** argv, const std::function<int()>& body);
 

@@ -36,6 +36,7 @@ int main(int argc, char** argv) {
     std::cout << obsgain::format_report(report.design) << "\n" << obsgain::format_report(report.monte_carlo) << "\n";
     std::cout << "report: " << written.html << "\n       " << written.json << "\n";
     if (!written.plots) std::cout << "plots missing: " << written.plots_note << "\n";
+    if (!report.design.design.unfinished.empty()) throw obsgain::UnmetRequest(report.design.design.unfinished);
     return report.monte_carlo.certificate_held() ? 0 : 1;
   });
 }

@@ -268,6 +268,7 @@ TradeoffPoint least_velocity_error(const GainSearch& search, const Design& base,
 DeployedDesign deploy(const Model& model, const BoundReport& bounds, const DesignOptions& options,
                       const DeploymentOptions& deployment, const BoundBracket& sensitivity) {
   const Design base = design_from_bounds(model, bounds, options);
+  if (!base.unfinished.empty()) return {base, std::nullopt};  // no rate, nothing to deploy
   const double model_gain = model_gain_upper(bounds.M0.value, sensitivity.upper);
   const double d_norm = norm_upper(measurement_error_bound(deployment, bounds.velocity_bounds, deployment.sample_period));
   const GainSearch search(model, bounds, options, base, model_gain, d_norm);

@@ -108,28 +108,18 @@ void validate_design_options(const DesignOptions& options) {
     throw InputError(fmt::format("rate margin = {} must lie in (0, 0.5)", options.rate_margin));
 }
 
-Design design_from_bounds(const Model& model, const BoundReport& bounds, const DesignOptions& options) {
-  validate_design_options(options);
-  Design d;
-  d.robot_name = model.name;
-  d.robot_source = model.source;
-  d.dof = model.dof();
-  d.notes = model.notes;
-  d.armature = armature(model);
-  d.robot_fingerprint = model.fingerprint;
-  d.velocity_bounds = bounds.velocity_bounds;
-  d.bounds = bounds;
-  d.certificate = options.certificate;
-  d.target_gamma = options.gamma;
-  d.rate_margin = options.rate_margin;
+namespace {
 
-  const double L_computed = options.lipschitz == LipschitzKind::joint ? bounds.L_joint.value : bounds.L_paper;
-  if (!options.L_override && !std::isfinite(L_computed))
-    throw InputError(fmt::format("L_{} has no finite proven upper bound yet after the bound budget of {} s: raise "
-                                 "--bound-budget (0: no limit)",
-                                 to_string(options.lipschitz), options.certified_bounds.budget_seconds));
-  d.L_used = options.L_override.value_or(L_computed);
+// The Lipschitz constant the certificates use: the computed one the options name, or the user's own.
+void choose_lipschitz(Design& d, const BoundReport& bounds, const DesignOptions& options) {
+  const double computed = options.lipschitz == LipschitzKind::joint ? bounds.L_joint.value : bounds.L_paper;
+  d.L_used = options.L_override.value_or(computed);
   d.L_source = options.L_override ? "override" : to_string(options.lipschitz);
+  if (!std::isfinite(d.L_used))
+    d.unfinished = fmt::format("L_{} has no finite proven upper bound: the interval search stopped before it could bound "
+                               "M(q)⁻¹ on every box (raise --bound-budget or --bound-boxes; real arms have rotor inertia: "
+                               "--armature)",
+                               to_string(options.lipschitz));
   if (options.L_override) {
     d.warnings.push_back(fmt::format("L overridden by the user: {} (the model gives L_joint = {:.6g}, L_paper = {:.6g})",
                                      d.L_used, bounds.L_joint.value, bounds.L_paper));
@@ -142,31 +132,35 @@ Design design_from_bounds(const Model& model, const BoundReport& bounds, const D
       d.warnings.push_back(fmt::format("bound search: NLopt ({:.10g}) and Ipopt ({:.10g}) disagree beyond 1e-6",
                                        bound->global_value, bound->polish_value));
   }
+}
 
+// α and β: the options', or with --optimize-shape β = 1 and the α that is best for the certificate.
+void choose_shape(Design& d, const DesignOptions& options) {
   d.alpha = options.alpha;
   d.beta = options.beta;
-  if (options.optimize_shape) {
-    d.beta = 1.0;
-    if (options.certificate == CertificateKind::paper) {
-      d.shape = optimize_alpha("S_norm", [](double a) { return observer_lyapunov(a, 1.0, 1).S_norm; });
-    } else if (options.gamma) {
-      d.shape = optimize_alpha("theta_star", [&](double a) { return tight_theta_star(a, 1.0, *options.gamma, d.L_used); });
-    } else {
-      d.shape = optimize_alpha("-gamma", [&](double a) {
-        return -tight_rate(*options.theta * a, *options.theta * *options.theta, d.L_used);
-      });
-    }
-    const bool polish_better = d.shape.objective_polish <= d.shape.objective_global;
-    d.alpha = polish_better ? d.shape.alpha_polish : d.shape.alpha_global;
-    const double scale = std::max(1.0, std::abs(d.shape.objective_global));
-    if (std::abs(d.shape.objective_global - d.shape.objective_polish) > 1e-6 * scale)
-      d.warnings.push_back("shape optimisation: NLopt and Ipopt disagree beyond 1e-6");
+  if (!options.optimize_shape) return;
+  d.beta = 1.0;
+  if (options.certificate == CertificateKind::paper) {
+    d.shape = optimize_alpha("S_norm", [](double a) { return observer_lyapunov(a, 1.0, 1).S_norm; });
+  } else if (options.gamma) {
+    d.shape = optimize_alpha("theta_star", [&](double a) { return tight_theta_star(a, 1.0, *options.gamma, d.L_used); });
+  } else {
+    d.shape = optimize_alpha("-gamma", [&](double a) {
+      return -tight_rate(*options.theta * a, *options.theta * *options.theta, d.L_used);
+    });
   }
-  d.lyapunov = observer_lyapunov(d.alpha, d.beta, d.dof);
+  const bool polish_better = d.shape.objective_polish <= d.shape.objective_global;
+  d.alpha = polish_better ? d.shape.alpha_polish : d.shape.alpha_global;
+  const double scale = std::max(1.0, std::abs(d.shape.objective_global));
+  if (std::abs(d.shape.objective_global - d.shape.objective_polish) > 1e-6 * scale)
+    d.warnings.push_back("shape optimisation: NLopt and Ipopt disagree beyond 1e-6");
+}
 
+// Both certificates, side by side, and what the selected one proves.
+void certify(Design& d, const Model& model, const BoundReport& bounds, const DesignOptions& options) {
+  d.lyapunov = observer_lyapunov(d.alpha, d.beta, d.dof);
   d.paper = paper_summary(d, options.gamma, options.theta);
   d.tight = tight_summary(d, options.gamma, options.theta);
-
   // Both certificates use L alone: proven bounds, or the user's own L, make the certificate a proof.
   if (!bounds.certified && !options.L_override) {
     d.not_proven_reason = options.bound_method == BoundMethod::numeric
@@ -183,6 +177,28 @@ Design design_from_bounds(const Model& model, const BoundReport& bounds, const D
     d.warnings.push_back(fmt::format("theta = {:.6g} certifies no exponential rate with the {} certificate (gamma = {:.6g})",
                                      s.observer.theta, to_string(d.certificate), s.rate));
   }
+}
+
+}  // namespace
+
+Design design_from_bounds(const Model& model, const BoundReport& bounds, const DesignOptions& options) {
+  validate_design_options(options);
+  Design d;
+  d.robot_name = model.name;
+  d.robot_source = model.source;
+  d.dof = model.dof();
+  d.notes = model.notes;
+  d.armature = armature(model);
+  d.robot_fingerprint = model.fingerprint;
+  d.velocity_bounds = bounds.velocity_bounds;
+  d.bounds = bounds;
+  d.certificate = options.certificate;
+  d.target_gamma = options.gamma;
+  d.rate_margin = options.rate_margin;
+  choose_lipschitz(d, bounds, options);
+  if (!d.unfinished.empty()) return d;  // nothing can be certified on an unbounded L
+  choose_shape(d, options);
+  certify(d, model, bounds, options);
   return d;
 }
 
@@ -209,6 +225,7 @@ BoundReport design_bounds(const Model& model, const Eigen::VectorXd& V, const De
 }
 
 std::string unmet_request(const Design& d, const DesignOptions& options) {
+  if (!d.unfinished.empty()) return d.unfinished;
   if (!options.gamma) return {};
   if (!d.selected().observer.certified) return fmt::format("the design does not certify gamma = {}", *options.gamma);
   if (!d.proven() && options.bound_method == BoundMethod::certified)

@@ -189,6 +189,8 @@ Plot tradeoff_plot(const VerificationReport& r) {
 }
 
 std::vector<Plot> plots(const VerificationReport& r) {
+  // A design whose bounds support no certificate has only its bound curves to show.
+  if (!r.design.design.unfinished.empty()) return {bound_curves_plot(r)};
   std::vector<Plot> out{bound_curves_plot(r), example_run_plot(r), error_traces_plot(r), rate_plot(r)};
   if (r.design.deployment) out.push_back(tradeoff_plot(r));
   return out;

@@ -173,7 +173,10 @@ nlohmann::json to_json(const Design& d) {
       {"wall_seconds", d.wall_seconds}};
   // The verdict a tool reads first: proven, or an estimate and why.
   j["certified"] = d.selected().observer.certified && d.proven();
-  if (!d.proven()) j["certified_reason"] = d.not_proven_reason;
+  if (!d.unfinished.empty())
+    j["certified_reason"] = d.unfinished;
+  else if (!d.proven())
+    j["certified_reason"] = d.not_proven_reason;
   if (d.bounds.certified) j["bounds"]["brackets"] = certified_json(d.bounds);
   j["notes"] = d.notes;
   j["robot"]["armature"] = to_json(d.armature);
@@ -274,6 +277,7 @@ std::string format_gains(const Design& d) {
   out << fmt::format("Design ({} certificate): theta = {:.7g}, alpha = {:.7g}, beta = {:.7g}\n", to_string(d.certificate),
                      o.theta, d.alpha, d.beta);
   out << fmt::format("  gains k1 = {:.7g}, k2 = {:.7g}\n", o.k1, o.k2);
+  if (!d.unfinished.empty()) return out.str() + "  NOT CERTIFIED: " + d.unfinished + "\n";
   if (!o.certified) return out.str() + "  NOT CERTIFIED\n";
   // Never the word "certified" on a certificate that rests on estimated bounds.
   out << fmt::format("  {}: ||e(t)|| <= {:.6g} ||e(0)|| exp(-{:.6g} t) while |v_i(t)| <= V_i\n",
@@ -298,7 +302,10 @@ std::string format_report(const Design& d) {
 std::string format_report(const DeployedDesign& deployed) {
   const Design& d = deployed.design;
   std::string out = format_report(d);
-  if (deployed.deployment) out += "\n" + format_deployment(*deployed.deployment, d.proven() && d.selected().observer.certified);
+  if (deployed.deployment) {
+    out += '\n';
+    out += format_deployment(*deployed.deployment, d.proven() && d.selected().observer.certified);
+  }
   return out;
 }
 

@@ -11,6 +11,29 @@
 
 namespace obsgain {
 
+namespace {
+
+// The bounds' functions along the first joint that M and C depend on (the others at the M0 argmax).
+void bound_curves(const Model& model, const Design& d, const VerificationOptions& options, VerificationReport& report) {
+  report.curve_joint = configuration_joints(model).front();
+  const JointDomain& joint = model.joints[report.curve_joint];
+  const double lo = joint.continuous ? -std::numbers::pi : joint.lower;
+  const double hi = joint.continuous ? std::numbers::pi : joint.upper;
+  if (options.design.progress)
+    options.design.progress(fmt::format("bound curves: {} configurations along joint {}", options.curve_points, report.curve_joint + 1));
+  for (int k = 0; k < options.curve_points; ++k) {
+    Eigen::VectorXd q = d.bounds.M0.q;
+    q(report.curve_joint) = lo + (hi - lo) * k / (options.curve_points - 1);
+    // The searches' own maxima over vertices and patterns (pruned: 4ⁿ choices cost a few eigensolves).
+    const BoundCurvePoint p{q(report.curve_joint), inverse_inertia_norm(model, q),
+                            max_coriolis_jacobian_norm(model, q, d.velocity_bounds),
+                            max_joint_lipschitz_norm(model, q, d.velocity_bounds)};
+    report.bound_curve.push_back(p);
+  }
+}
+
+}  // namespace
+
 VerificationReport verify_design(const Model& model, const VerificationOptions& options) {
   VerificationReport report;
   report.robot = model.name;
@@ -23,28 +46,15 @@ VerificationReport verify_design(const Model& model, const VerificationOptions& 
   report.date = date;
   report.design = design_observer(model, options.design, options.deployment);
   const Design& d = report.design.design;
-  const ObserverCertificate certificate = observer_certificate(report.design);
   const auto phase = [&](const std::string& text) {
     if (options.design.progress) options.design.progress(text);
   };
+  bound_curves(model, d, options, report);
+  // Bounds that support no certificate leave nothing to simulate against: the report shows them as they are.
+  if (!d.unfinished.empty()) return report;
+  const ObserverCertificate certificate = observer_certificate(report.design);
   phase(fmt::format("Monte Carlo: {} trials", options.monte_carlo.trials));
   report.monte_carlo = run_monte_carlo(model, certificate, options.monte_carlo);
-
-  // Bound curves along the first joint that M and C depend on.
-  report.curve_joint = configuration_joints(model).front();
-  const JointDomain& joint = model.joints[report.curve_joint];
-  const double lo = joint.continuous ? -std::numbers::pi : joint.lower;
-  const double hi = joint.continuous ? std::numbers::pi : joint.upper;
-  phase(fmt::format("bound curves: {} configurations along joint {}", options.curve_points, report.curve_joint + 1));
-  for (int k = 0; k < options.curve_points; ++k) {
-    Eigen::VectorXd q = d.bounds.M0.q;
-    q(report.curve_joint) = lo + (hi - lo) * k / (options.curve_points - 1);
-    // The searches' own maxima over vertices and patterns (pruned: 4ⁿ choices cost a few eigensolves).
-    const BoundCurvePoint p{q(report.curve_joint), inverse_inertia_norm(model, q),
-                            max_coriolis_jacobian_norm(model, q, d.velocity_bounds),
-                            max_joint_lipschitz_norm(model, q, d.velocity_bounds)};
-    report.bound_curve.push_back(p);
-  }
 
   // The paper's scenario (hanging, u = 1.5 sin 100t) belongs to its two-link family; another arm would leave the
   // velocity box within milliseconds. Other robots show their first random trial (computed-torque tracking

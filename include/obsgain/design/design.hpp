@@ -79,6 +79,9 @@ struct Design {
   // The certificate is a proof only if every bound it uses is proven: certified bounds, or an L given by the
   // user (whose responsibility it then is). Otherwise the design is an estimate, and this says why.
   std::string not_proven_reason;
+  // Set when the bounds could not support any certificate (no finite proven L within the budget): the certificates
+  // are then not computed, and the request is not met (exit 1, with what would help).
+  std::string unfinished;
   double wall_seconds = 0.0;
 
   bool proven() const { return not_proven_reason.empty(); }
