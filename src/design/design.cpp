@@ -214,7 +214,9 @@ BoundReport design_bounds(const Model& model, const Eigen::VectorXd& V, const De
               ? fmt::format("bounds: interval branch and bound, budget {:g} s (--bound-budget)",
                             options.certified_bounds.budget_seconds)
               : std::string("bounds: interval branch and bound until the 1e-6 gap (no budget)"));
-    if (const auto certified = certify_bounds(model, bounds, options.certified_bounds)) {
+    CertifiedOptions certified_options = options.certified_bounds;
+    certified_options.focus = options.lipschitz == LipschitzKind::paper ? LipschitzFocus::paper : LipschitzFocus::joint;
+    if (const auto certified = certify_bounds(model, bounds, certified_options)) {
       apply_certified_bounds(bounds, *certified);
     } else {
       warnings.push_back(certification_unavailable(model) +

@@ -1,7 +1,7 @@
-// Certified brackets [lower, upper] for M0, B and L_joint: best-first interval branch and bound over the
-// searched joints, on all cores, with the model's dynamics evaluated on intervals and interval derivatives.
-// `lower` is a value attained at a point; `upper` provably bounds the supremum (outward rounding throughout,
-// exact vertex reduction in v and D, centred forms whose excess shrinks quadratically with the box).
+// Certified brackets [lower, upper] for M0, B and L_joint: a deterministic best-first branch and bound over the
+// searched joints, on all cores, with the model's dynamics evaluated on affine forms over each box. `lower` is a
+// value attained at a point; `upper` provably bounds the supremum (rounding bounded throughout, exact vertex
+// reduction in v and D, norm bounds whose excess shrinks quadratically with the box; docs/theory.md).
 #pragma once
 
 #include "obsgain/bounds/bounds.hpp"
@@ -12,9 +12,14 @@
 
 namespace obsgain {
 
+// Which constant the design rests on, so that the search spends its budget there first: L_joint (the default
+// certificate), or M0 and B (the paper's Lipschitz constant L_paper = M0 (B + ||F||)).
+enum class LipschitzFocus { joint, paper };
+
 struct CertifiedOptions {
   double relative_gap = 1e-6;  // stop a bound when upper - lower <= relative_gap * upper
   double budget_seconds = 120;  // wall time for the three bounds together; 0 = until the gap is reached
+  LipschitzFocus focus = LipschitzFocus::joint;  // the first gets 3/4 of the budget; a bound's leftover passes on
   int max_boxes = 2000000;      // per bound; reaching it leaves a wider (still valid) bracket
   int threads = 0;              // 0: all cores
   ProgressCallback progress;    // optional

@@ -10,6 +10,7 @@
 
 #include "obsgain/model/serial_chain.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <type_traits>
@@ -166,6 +167,17 @@ void chain_velocities(const SerialChain& chain, const ChainKinematics<S>& k, con
   }
 }
 
+namespace chain_detail {
+
+// The first joint with a non-zero velocity (n when none).
+inline int first_moving(const double* v, int n) {
+  int i = 0;
+  while (i < n && v[i] == 0.0) ++i;
+  return i;
+}
+
+}  // namespace chain_detail
+
 // τ = M(q) qdd + B(q; x, y) [+ g(q)] by recursive Newton–Euler in body frames. Every quantity is either linear in
 // the velocities (ω, computed for x and for y in wx, wy) or quadratic (accelerations, forces); a product of two
 // linear ones is symmetrised, so the pass is the symmetric bilinear form of the usual one, which it equals for
@@ -181,7 +193,13 @@ void chain_forces(const SerialChain& chain, const ChainKinematics<S>& k, const C
   Vec3<S> dw_prev = zero<S>();
   // The base accelerates upwards at -gravity: gravity then acts on every body through the recursion.
   Vec3<S> a_prev = with_gravity ? scaled<S>(chain.gravity, -1.0) : zero<S>();
-  for (int i = 0; i < n; ++i) {
+  // Without gravity and q'', every acceleration and force is a product of x's and y's velocities: nothing moves
+  // before the later of the first joints they set in motion (the tensors' passes for unit velocities start there).
+  const int start = with_gravity || std::any_of(qdd, qdd + n, [](double v) { return v != 0.0; })
+                        ? 0
+                        : std::max(first_moving(x, n), first_moving(y, n));
+  for (int i = 0; i < std::min(start, n); ++i) f[i] = m[i] = zero<S>();
+  for (int i = start; i < n; ++i) {
     const Eigen::Vector3d& axis = chain.joints[i].axis;
     const Vec3<S>& p = k.p[i];
     const Vec3<S> w0x = i > 0 ? wx.body[i - 1] : zero<S>(), w0y = i > 0 ? wy.body[i - 1] : zero<S>();

@@ -30,9 +30,13 @@ struct OutwardTranscendentals : boost::numeric::interval_lib::rounded_arith_opp<
   double cos_up(double x) { return widen_up(std::cos(x)); }
 };
 
+// How many UpwardRounding guards this thread holds: inside one, the FPU already rounds upward and an interval
+// operation need not even ask (fegetround costs more than the arithmetic).
+inline thread_local int upward_guards = 0;
+
 // Constructed by Boost around every interval operation.
 struct UpwardUnlessAlready : OutwardTranscendentals {
-  UpwardUnlessAlready() : saved_(std::fegetround()) {
+  UpwardUnlessAlready() : saved_(upward_guards > 0 ? FE_UPWARD : std::fegetround()) {
     if (saved_ != FE_UPWARD) std::fesetround(FE_UPWARD);
   }
   ~UpwardUnlessAlready() {
@@ -50,8 +54,14 @@ struct UpwardUnlessAlready : OutwardTranscendentals {
 // are still estimates, only rounded the other way.
 class UpwardRounding {
  public:
-  UpwardRounding() : saved_(std::fegetround()) { std::fesetround(FE_UPWARD); }
-  ~UpwardRounding() { std::fesetround(saved_); }
+  UpwardRounding() : saved_(std::fegetround()) {
+    std::fesetround(FE_UPWARD);
+    ++upward_guards;
+  }
+  ~UpwardRounding() {
+    --upward_guards;
+    std::fesetround(saved_);
+  }
   UpwardRounding(const UpwardRounding&) = delete;
   UpwardRounding& operator=(const UpwardRounding&) = delete;
 

@@ -1,0 +1,37 @@
+// What the branch and bound asks of one box of the searched joints: proven upper bounds of M0 = sup ||M⁻¹||,
+// B = sup ||J(q, w)|| and L_joint = sup ||M⁻¹(J(q, w) D + F)|| over the box (w over the velocity box's vertices, D
+// over the saturation patterns), from the model's dynamics on affine forms; and how much splitting each side
+// would tighten them.
+#pragma once
+
+#include "obsgain/bounds/branch_and_bound.hpp"
+#include "obsgain/bounds/joint_search.hpp"
+#include "obsgain/model/model.hpp"
+
+#include <Eigen/Dense>
+
+#include <vector>
+
+namespace obsgain {
+
+class BoxBounds {
+ public:
+  // Keeps references to the model and the search: they must outlive it.
+  BoxBounds(const Model& model, const JointSearch& search, const Eigen::VectorXd& velocity_bounds);
+
+  // `lower`: a value attained elsewhere; a choice whose bound cannot exceed it is not refined.
+  BoxBound inverse_inertia(const std::vector<Interval>& box) const;
+  BoxBound jacobian(const std::vector<Interval>& box, double lower) const;
+  BoxBound joint_lipschitz(const std::vector<Interval>& box, double lower) const;
+
+ private:
+  const Model& model_;
+  const JointSearch& search_;
+  Eigen::MatrixXd vertices_;
+  // J(q, -w) = -J(q, w): the vertices with w_n < 0 repeat the others for ||J||, and for ||M⁻¹(J D + F)|| too when
+  // F = 0 (the full pattern D = I is then the maximum, ||A D|| <= ||A||, and the only one needed).
+  unsigned count_, half_;
+  bool frictionless_;
+};
+
+}  // namespace obsgain

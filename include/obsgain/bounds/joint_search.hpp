@@ -1,0 +1,41 @@
+// A branch and bound over some of a model's joints, the others held fixed: the box of their domains, the way from
+// the searched coordinates to a full configuration, and the search itself with a bracket as its result.
+#pragma once
+
+#include "obsgain/bounds/bounds.hpp"
+#include "obsgain/bounds/branch_and_bound.hpp"
+#include "obsgain/model/model.hpp"
+
+#include <chrono>
+#include <functional>
+#include <vector>
+
+namespace obsgain {
+
+struct JointSearch {
+  std::vector<int> joints;        // the searched joints, in the order of the box's sides
+  Eigen::VectorXd fixed_q;        // every joint's value outside the search
+  std::vector<Interval> domain;   // the searched joints' domains
+  Eigen::VectorXd configuration(const Eigen::VectorXd& x) const;  // searched coordinates -> full q
+  Eigen::VectorXd coordinates(const Eigen::VectorXd& q) const;    // full q -> searched coordinates
+};
+
+// The joints' domains: inside their limits, one period (widened by an ulp) for continuous ones.
+JointSearch joint_search(const Model& model, const std::vector<int>& joints);
+
+struct JointSearchOptions {
+  double relative_gap = 1e-6;
+  int max_boxes = 2000000;
+  std::chrono::steady_clock::time_point deadline = std::chrono::steady_clock::time_point::max();
+  int threads = 0;
+  const char* name = "";
+  ProgressCallback progress;
+};
+
+// sup of value(q) over the search: `bound(box, lower)` proves an upper bound over a box of the searched
+// coordinates; `value(q)` evaluates at a full configuration; `seed` (a full configuration) is tried first.
+BoundBracket search_joints(const JointSearch& search, const std::function<BoxBound(const std::vector<Interval>&, double)>& bound,
+                           const std::function<double(const Eigen::VectorXd&)>& value, const Eigen::VectorXd& seed,
+                           const JointSearchOptions& options);
+
+}  // namespace obsgain

@@ -1,0 +1,51 @@
+#include "obsgain/bounds/joint_search.hpp"
+
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+namespace obsgain {
+
+Eigen::VectorXd JointSearch::configuration(const Eigen::VectorXd& x) const {
+  Eigen::VectorXd q = fixed_q;
+  for (std::size_t k = 0; k < joints.size(); ++k) q(joints[k]) = x(static_cast<Eigen::Index>(k));
+  return q;
+}
+
+Eigen::VectorXd JointSearch::coordinates(const Eigen::VectorXd& q) const {
+  Eigen::VectorXd x(static_cast<Eigen::Index>(joints.size()));
+  for (std::size_t k = 0; k < joints.size(); ++k) x(static_cast<Eigen::Index>(k)) = q(joints[k]);
+  return x;
+}
+
+JointSearch joint_search(const Model& model, const std::vector<int>& joints) {
+  JointSearch s;
+  s.joints = joints;
+  s.fixed_q = Eigen::VectorXd::Zero(model.dof());
+  const double pi_up = std::nextafter(std::numbers::pi, std::numeric_limits<double>::infinity());
+  for (int j : joints) {
+    const JointDomain& joint = model.joints[static_cast<std::size_t>(j)];
+    s.domain.push_back(joint.continuous ? Interval(-pi_up, pi_up) : Interval(joint.lower, joint.upper));
+  }
+  return s;
+}
+
+BoundBracket search_joints(const JointSearch& search, const std::function<BoxBound(const std::vector<Interval>&, double)>& bound,
+                           const std::function<double(const Eigen::VectorXd&)>& value, const Eigen::VectorXd& seed,
+                           const JointSearchOptions& options) {
+  BranchAndBoundProblem problem;
+  problem.domain = search.domain;
+  problem.bound = bound;
+  problem.value = [&](const Eigen::VectorXd& x) { return value(search.configuration(x)); };
+  BranchAndBoundOptions o;
+  o.relative_gap = options.relative_gap;
+  o.max_boxes = options.max_boxes;
+  o.deadline = options.deadline;
+  o.threads = options.threads;
+  o.name = options.name;
+  o.progress = options.progress;
+  const BranchAndBoundResult r = branch_and_bound(problem, search.coordinates(seed), o);
+  return {r.lower, r.upper, search.configuration(r.argmax), r.boxes, r.seconds, r.stop};
+}
+
+}  // namespace obsgain
