@@ -40,6 +40,20 @@ Eigen::VectorXd parse_number_list(const std::string& name, const std::string& te
 
 namespace {
 
+int parse_count(const std::string& name, const std::string& text, int minimum) {
+  const double value = parse_number(name, text);
+  if (value != std::floor(value) || value < minimum || value > 1e9)
+    throw InputError(fmt::format("{} = {} must be a whole number >= {}", name, text, minimum));
+  return static_cast<int>(value);
+}
+
+// No more threads than could ever help.
+int parse_threads(const std::string& text) {
+  const int threads = parse_count("threads", text, 0);
+  if (threads > 256) throw InputError(fmt::format("--threads = {} must lie in [0, 256] (0: all cores)", text));
+  return threads;
+}
+
 // Which robot, and its velocity box.
 void add_robot_options(CLI::App& app, DesignArguments& a) {
   app.add_option("--robot", a.robot, "built-in robot name (pendubot), model file (*.json) or URDF (*.urdf)")
@@ -129,6 +143,11 @@ void add_design_options(CLI::App& app, DesignArguments& a) {
   add_robot_options(app, a);
   add_certificate_options(app, a);
   app.add_flag("--quiet", a.quiet, "no progress lines on stderr");
+  app.add_option("--threads", a.threads,
+                 "worker threads for the bound search and the Monte Carlo trials (0: all cores); the results do not "
+                 "depend on it")
+      ->capture_default_str()
+      ->type_name("COUNT");
   add_deployment_options(app, a);
   const auto options = app.get_options();
   a.given.assign(options.begin() + static_cast<std::ptrdiff_t>(before), options.end());
@@ -148,8 +167,9 @@ void close_progress_line() {
 namespace {
 
 void print_search_progress(const SearchProgress& p) {
-  const std::string left = p.seconds_left >= 0.0 ? fmt::format("at most {:.1f} s left", p.seconds_left)
-                                                  : std::string("no budget: until the gap");
+  const std::string left = std::isfinite(p.work_budget)
+                               ? fmt::format("{:.0f} % of its budget", 100.0 * p.work / std::max(p.work_budget, 1e-9))
+                               : std::string("no budget: until the gap");
   std::cerr << fmt::format("\r\033[K  {}: {} boxes, [{:.8g}, {:.8g}], gap {:.1e} (target {:.0e}), {:.0f} s, {}",
                            p.bound, p.boxes, p.lower, p.upper, p.relative_gap, p.target_gap, p.seconds, left)
             << std::flush;
@@ -214,6 +234,7 @@ DesignRequest to_design_request(const DesignArguments& a, const Model& model) {
   if (!a.L.empty()) o.L_override = parse_number("L", a.L);
   if (!a.rate_margin.empty()) o.rate_margin = parse_number("rate-margin", a.rate_margin);
   if (!a.bound_budget.empty()) o.certified_bounds.budget_seconds = parse_number("bound-budget", a.bound_budget);
+  o.certified_bounds.threads = parse_threads(a.threads);
   if (!a.vmax.empty()) o.velocity_bounds = parse_number_list("vmax", a.vmax);
   validate_design_options(o);
   return {o, to_deployment_options(a)};
@@ -264,8 +285,6 @@ void add_monte_carlo_options(CLI::App& app, MonteCarloArguments& a) {
       ->type_name("COUNT");
   app.add_option("--horizon", a.horizon, "simulated time per trial [s]")->capture_default_str()
       ->type_name("SECONDS");
-  app.add_option("--threads", a.threads, "worker threads (0: all cores)")->capture_default_str()
-      ->type_name("COUNT");
   app.add_option("--rtol", a.rtol, "integrator relative tolerance")->capture_default_str()
       ->type_name("NUMBER");
   app.add_option("--atol", a.atol, "integrator absolute tolerance")->capture_default_str()
@@ -282,12 +301,6 @@ void add_monte_carlo_options(CLI::App& app, MonteCarloArguments& a) {
 
 namespace {
 
-int parse_count(const std::string& name, const std::string& text, int minimum) {
-  const double value = parse_number(name, text);
-  if (value != std::floor(value) || value < minimum || value > 1e9)
-    throw InputError(fmt::format("{} = {} must be a whole number >= {}", name, text, minimum));
-  return static_cast<int>(value);
-}
 
 double parse_in(const std::string& name, const std::string& text, double lower, double upper) {
   const double value = parse_number(name, text);
@@ -295,9 +308,11 @@ double parse_in(const std::string& name, const std::string& text, double lower, 
   return value;
 }
 
+
 }  // namespace
 
-MonteCarloOptions to_monte_carlo_options(const MonteCarloArguments& a, bool quiet) {
+MonteCarloOptions to_monte_carlo_options(const MonteCarloArguments& a, const DesignArguments& design) {
+  const bool quiet = design.quiet;
   MonteCarloOptions o;
   if (!quiet && isatty(STDERR_FILENO) != 0)
     o.progress = [](int done, int total, double seconds) {
@@ -311,13 +326,12 @@ MonteCarloOptions to_monte_carlo_options(const MonteCarloArguments& a, bool quie
   const double seed = parse_number("seed", a.seed);
   if (seed < 0 || seed != std::floor(seed) || seed > 9e15) throw InputError(fmt::format("seed = {} must be a whole number >= 0", a.seed));
   o.seed = static_cast<std::uint64_t>(seed);
-  o.threads = parse_count("threads", a.threads, 0);
+  o.threads = parse_threads(design.threads);
   // Tolerances the checks can trust (a loose integrator manufactures false counterexamples), a horizon that
   // ends, and no more threads than could ever help.
   o.simulation.horizon = parse_in("horizon", a.horizon, 1e-6, 1e3);
   o.simulation.rtol = parse_in("rtol", a.rtol, 1e-13, 1e-4);
   o.simulation.atol = parse_in("atol", a.atol, 1e-20, 1e-6);
-  if (o.threads > 256) throw InputError(fmt::format("--threads = {} must lie in [0, 256] (0: all cores)", a.threads));
   o.scenario = a.scenario == "paper" ? Scenario::paper : Scenario::random;
   o.initial_errors = a.initial_errors == "practical" ? InitialErrors::practical
                      : a.initial_errors == "global"  ? InitialErrors::global

@@ -19,6 +19,7 @@ struct DesignArguments {
   std::string vmax, gamma, theta, alpha, beta, L, rate_margin, bound_budget;
   std::string sample_period, encoder_counts, acceleration_bounds, velocity_error_tolerance, latency;
   std::string objective = "rate";
+  std::string threads = "0";
   std::string lipschitz = "joint";
   std::string certificate = "tight";
   std::string bounds = "certified";
@@ -41,14 +42,14 @@ RobotSource to_robot_source(const DesignArguments& arguments);
 
 struct MonteCarloArguments {
   std::string design_file;
-  std::string trials = "1000", seed = "1", horizon = "1", threads = "0", rtol = "1e-8", atol = "1e-10";
+  std::string trials = "1000", seed = "1", horizon = "1", rtol = "1e-8", atol = "1e-10";
   std::string scenario = "random", initial_errors = "both";
 };
 
 void add_monte_carlo_options(CLI::App& app, MonteCarloArguments& arguments);
 
 // `quiet`: no progress line (else one on a terminal, rewritten in place).
-MonteCarloOptions to_monte_carlo_options(const MonteCarloArguments& arguments, bool quiet);
+MonteCarloOptions to_monte_carlo_options(const MonteCarloArguments& arguments, const DesignArguments& design);
 
 // What a validation runs against: a design computed from the design options, or one saved by design-gains.
 struct ValidationTarget {

@@ -27,7 +27,7 @@ int main(int argc, char** argv) {
     options.design = request.design;
     options.deployment = request.deployment;
     for (int i = 0; i < argc; ++i) options.command_line += (i ? " " : "") + std::string(argv[i]);
-    options.monte_carlo = obsgain::to_monte_carlo_options(monte_carlo, design.quiet);
+    options.monte_carlo = obsgain::to_monte_carlo_options(monte_carlo, design);
     const obsgain::VerificationReport report = obsgain::verify_design(model, options);
     if (options.design.progress) options.design.progress("writing the report and its plots");
     const obsgain::WrittenReport written = obsgain::write_verification_report(report, out);

@@ -34,6 +34,23 @@ double AffineMatrix::frobenius_upper() const {
   return up(bound);
 }
 
+double every_choice_upper(const std::vector<AffineMatrix>& X, const Eigen::VectorXd& V, const AffineMatrix& R) {
+  const auto moduli = [](const AffineMatrix& Y) {
+    Eigen::MatrixXd E = Y.centre.cwiseAbs();
+    for (const auto& G : Y.slopes) E += G.cwiseAbs();
+    return E;
+  };
+  Eigen::MatrixXd E = moduli(R);
+  double remainders = R.remainder;
+  for (std::size_t j = 0; j < X.size(); ++j) {
+    const double v = std::abs(V(static_cast<Eigen::Index>(j)));
+    E += v * moduli(X[j]);
+    remainders += v * X[j].remainder;
+  }
+  // Sums of non-negative terms: their rounding is relative, covered by up() (gamma for the longest sum).
+  return up(up(frobenius(E) * (1.0 + gamma(static_cast<int>(X.size() * (R.slopes.size() + 2))))) + up(remainders));
+}
+
 AffineMatrix affine_matrix(const Affine* entries, int rows, int cols, int symbols) {
   AffineMatrix X;
   X.centre.resize(rows, cols);

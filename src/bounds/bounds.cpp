@@ -86,9 +86,20 @@ Eigen::LLT<Eigen::MatrixXd> factor_inertia(const Model& model, const Eigen::Vect
   return Eigen::LLT<Eigen::MatrixXd>(M);
 }
 
+// Nothing to search when M and C depend on no joint (a single joint): the value at any configuration.
+BoundMaximum constant_maximum(const SearchSpace& space, const BoundProblem& problem) {
+  BoundMaximum result;
+  int choice = 0;
+  result.value = result.global_value = result.polish_value = problem.all_choices(space.fixed_q, choice);
+  result.global_evaluations = 1;
+  result.q = space.fixed_q;
+  return result;
+}
+
 BoundMaximum search(const Model& model, const BoundProblem& problem, const BoundOptions& options) {
   const SearchSpace space = search_space(model);
   const auto d = static_cast<int>(space.joints.size());
+  if (d == 0) return constant_maximum(space, problem);
   BoundMaximum result;
 
   const Objective objective = [&](const Eigen::VectorXd& x) {

@@ -13,6 +13,7 @@ namespace obsgain {
 namespace {
 
 constexpr double kInfinity = std::numeric_limits<double>::infinity();
+static_assert(kAffineSymbols <= kMaxDirections, "the Christoffel tensors differentiate along every searched joint");
 
 // The model's M (and N) over one box of the searched joints, as affine forms: symbol k is side k.
 struct BoxDynamics {
@@ -38,7 +39,7 @@ BoxDynamics box_dynamics(const Model& model, const JointSearch& s, const std::ve
   mass_matrix_of(model, q.data(), d.M.data());
   if (tensors) {
     d.N.resize(static_cast<std::size_t>(d.n * d.n * d.n));
-    coriolis_tensors_of(model, q.data(), d.N.data());
+    christoffel_tensors_of(model, s.joints, q.data(), d.N.data());
   }
   return d;
 }
@@ -90,29 +91,78 @@ BoxBound lipschitz_by_inertia_floor(const Model& model, const BoxDynamics& d, co
   return bound;
 }
 
-// The bound of max over saturation patterns D of ||A D + R|| for one vertex, given the box's running value `floor`:
-// every pattern is within ||A|| + ||R|| (A D keeps some of A's columns), so only a vertex that could beat the floor
-// is refined pattern by pattern, the full pattern (usually the maximum) first.
-double patterns_upper(const AffineMatrix& A, const AffineMatrix& R, double R_norm, int n, double floor) {
-  double best = norm_upper(A, floor - R_norm) + R_norm;
-  if (best <= floor) return best;
-  best = 0.0;
-  for (unsigned pattern = (1u << n); pattern-- > 0;) {
-    Eigen::VectorXd d(n);
-    for (int j = 0; j < n; ++j) d(j) = (pattern >> j) & 1u;
-    best = std::max(best, norm_upper(sum(scale_columns(A, d), R), std::max(best, floor)));
+// Column norms of A D + R term by term (the centre, then each symbol's slope), with A's column j kept (d_j = 1) or
+// dropped (d_j = 0): ||A D + R||_F over the box for any pattern, without forming A D + R.
+class PatternColumns {
+ public:
+  PatternColumns(const AffineMatrix& A, const AffineMatrix& R) : remainder_(A.remainder + R.remainder) {
+    const auto terms = static_cast<Eigen::Index>(A.slopes.size() + 1);
+    on_.resize(terms, A.centre.cols());
+    off_.resize(terms, A.centre.cols());
+    for (Eigen::Index t = 0; t < terms; ++t) {
+      const Eigen::MatrixXd& a = t == 0 ? A.centre : A.slopes[t - 1];
+      const Eigen::MatrixXd& r = t == 0 ? R.centre : R.slopes[t - 1];
+      on_.row(t) = (a + r).colwise().norm();
+      off_.row(t) = r.colwise().norm();
+    }
+  }
+  // The bound for one pattern (bit j: d_j = 1), and for every pattern at once (per column the larger choice).
+  double pattern(unsigned bits) const {
+    Eigen::MatrixXd chosen = off_;
+    for (Eigen::Index j = 0; j < on_.cols(); ++j)
+      if ((bits >> j) & 1u) chosen.col(j) = on_.col(j);
+    return total(chosen);
+  }
+  double every_pattern() const { return total(on_.cwiseMax(off_)); }
+
+ private:
+  // Σ over terms of the row norms, rounded up (relative errors of a few ulps per norm, covered by the inflation).
+  double total(const Eigen::MatrixXd& chosen) const {
+    const double terms = chosen.rowwise().norm().sum();
+    return (terms * (1.0 + 0x1p-40) + remainder_) * kAffineInflation + kUnderflow;
+  }
+  Eigen::MatrixXd on_, off_;
+  double remainder_;
+};
+
+// One choice of velocity vertex and saturation pattern (bit j: d_j = 1), with its cheap (Frobenius) bound.
+struct Choice {
+  double cheap;
+  unsigned vertex, bits;
+};
+
+// The largest bound over the choices, refined in decreasing order of their cheap bounds: once the next cheap bound
+// cannot beat the best refined one (or the value attained elsewhere, `lower`), neither can any after it.
+// `refined` counts the refinements.
+template <class Refine>
+double refine_choices(std::vector<Choice>& choices, double lower, const Refine& refine, int& refined) {
+  std::stable_sort(choices.begin(), choices.end(), [](const Choice& x, const Choice& y) { return x.cheap > y.cheap; });
+  double best = 0.0;
+  for (const Choice& choice : choices) {
+    if (choice.cheap <= std::max(best, lower)) return std::max(best, choice.cheap);
+    best = std::max(best, refine(choice, std::max(best, lower)));
+    ++refined;
   }
   return best;
 }
 
 }  // namespace
 
+BoxCosts box_costs(int n, int m) {
+  // Per core, in seconds (fits of timings on the reference machine, within about 30 % for n = 2 ... 7), halved
+  // for its two cores.
+  const double n2 = static_cast<double>(n * n);
+  const BoxCosts core{15e-6 + 2e-6 * n2, 33e-6 * n2, 2e-6 + 0.06e-6 * n2 * (m + 1), 0.05e-6 + 0.003e-6 * n2};
+  return {core.inertia / 2, core.tensors / 2, core.refinement / 2, core.choice / 2};
+}
+
 BoxBounds::BoxBounds(const Model& model, const JointSearch& search, const Eigen::VectorXd& velocity_bounds)
-    : model_(model), search_(search), vertices_(box_vertices(velocity_bounds)),
-      count_(static_cast<unsigned>(vertices_.cols())), half_(count_ / 2), frictionless_(model.friction.isZero(0.0)) {}
+    : model_(model), search_(search), velocity_bounds_(velocity_bounds), vertices_(box_vertices(velocity_bounds)),
+      count_(static_cast<unsigned>(vertices_.cols())), half_(count_ / 2), frictionless_(model.friction.isZero(0.0)),
+      costs_(box_costs(model.dof(), static_cast<int>(search.joints.size()))) {}
 
 BoxBound BoxBounds::inverse_inertia(const std::vector<Interval>& box) const {
-  BoxBound bound{kInfinity, {}};
+  BoxBound bound{kInfinity, {}, costs_.inertia + costs_.refinement};
   const double lambda = inertia_lower(model_, box_dynamics(model_, search_, box, false), &bound.split_weight);
   if (lambda > 0.0) bound.upper = (Interval(1.0) / Interval(lambda)).upper();
   return bound;
@@ -121,40 +171,106 @@ BoxBound BoxBounds::inverse_inertia(const std::vector<Interval>& box) const {
 BoxBound BoxBounds::jacobian(const std::vector<Interval>& box, double lower) const {
   const BoxDynamics d = box_dynamics(model_, search_, box, true);
   const std::vector<AffineMatrix> J = unit_jacobians(d);
-  BoxBound bound{0.0, {}};
+  BoxBound bound{0.0, {}, costs_.tensors};
   for (unsigned c = half_; c < count_; ++c) {
     const AffineMatrix Jw = linear_combination(J, vertices_.col(c));
     weigh_sides(Jw, d, bound.split_weight);
-    bound.upper = std::max(bound.upper, norm_upper(Jw, std::max(bound.upper, lower)));
+    const double floor = std::max(bound.upper, lower);
+    bound.work += costs_.choice + (Jw.frobenius_upper() > floor ? costs_.refinement : 0.0);
+    bound.upper = std::max(bound.upper, norm_upper(Jw, floor));
   }
   return bound;
 }
 
-// L_joint over a box: Φ = M⁻¹(J(w) D + F) = Σ_j w_j A_j D + R with A_j = M⁻¹ J_j and R = M⁻¹ F, all as affine
-// matrices (M⁻¹'s Neumann tail in their remainders).
+namespace {
+
+// Φ = M⁻¹(J(w) D + F) = Σ_j w_j A_j D + R over a box, A_j = M⁻¹ J_j and R = M⁻¹ F as affine matrices, M⁻¹'s
+// Neumann tail in their remainders.
+struct LipschitzTerms {
+  std::vector<AffineMatrix> A;
+  AffineMatrix R;
+};
+
+LipschitzTerms lipschitz_terms(const Model& model, const BoxDynamics& d, const AffineInverse& inverse_M) {
+  LipschitzTerms t;
+  const auto with_tail = [&](const std::vector<Affine>& Y) {
+    AffineMatrix X = affine_matrix(product(inverse_M.entries, Y, d.n, d.n, d.n).data(), d.n, d.n, d.m);
+    X.remainder = (Interval(X.remainder) + Interval(inverse_M.tail) * Interval(frobenius_upper(Y))).upper();
+    return X;
+  };
+  for (int j = 0; j < d.n; ++j) t.A.push_back(with_tail(unit_jacobian(d, j)));
+  std::vector<Affine> F(static_cast<std::size_t>(d.n * d.n));
+  for (int i = 0; i < d.n * d.n; ++i) F[i] = Affine(model.friction(i / d.n, i % d.n));
+  t.R = with_tail(F);
+  return t;
+}
+
+// The velocity box's vertices to visit (columns first..count-1), and whether F = 0 (then only the full pattern).
+struct VelocityChoices {
+  const Eigen::MatrixXd& vertices;
+  unsigned first, count;
+  bool frictionless;
+  const BoxCosts& costs;
+};
+
+// The maximum over the vertices w and the saturation patterns D of ||A(w) D + R||, each choice's cheap bound first.
+double choices_upper(const LipschitzTerms& t, const BoxDynamics& d, const VelocityChoices& v, double lower,
+                     std::vector<double>& weights, double& work) {
+  std::vector<AffineMatrix> Aw;
+  std::vector<Choice> choices;
+  for (unsigned c = v.first; c < v.count; ++c) {
+    Aw.push_back(linear_combination(t.A, v.vertices.col(c)));
+    weigh_sides(Aw.back(), d, weights);
+    const auto index = static_cast<unsigned>(Aw.size() - 1);
+    if (v.frictionless) {
+      choices.push_back({Aw.back().frobenius_upper(), index, (1u << d.n) - 1});
+      continue;
+    }
+    const PatternColumns columns(Aw.back(), t.R);
+    for (unsigned bits = 0; bits < (1u << d.n); ++bits) choices.push_back({columns.pattern(bits), index, bits});
+  }
+  work += static_cast<double>(choices.size()) * v.costs.choice;
+  int refined = 0;
+  const double upper = refine_choices(choices, lower, [&](const Choice& choice, double floor) {
+    if (v.frictionless) return norm_upper(Aw[choice.vertex], floor);
+    Eigen::VectorXd D(d.n);
+    for (int j = 0; j < d.n; ++j) D(j) = (choice.bits >> j) & 1u;
+    return norm_upper(sum(scale_columns(Aw[choice.vertex], D), t.R), floor);
+  }, refined);
+  work += refined * v.costs.refinement;
+  return upper;
+}
+
+}  // namespace
+
+// L_joint over a box. On a wide box the product M⁻¹ J carries both factors' remainders, and the inertia route
+// (||J|| + ||F||) / λmin(M) can be the tighter: where the cheap bound is far above the value attained, both are
+// taken.
 BoxBound BoxBounds::joint_lipschitz(const std::vector<Interval>& box, double lower) const {
   const BoxDynamics d = box_dynamics(model_, search_, box, true);
   const std::vector<AffineMatrix> J = unit_jacobians(d);
   const AffineInverse inverse_M = inverse(d.M, d.n);
-  if (!inverse_M.proven) return lipschitz_by_inertia_floor(model_, d, J, vertices_, half_, count_);
-  std::vector<AffineMatrix> A;
-  for (int j = 0; j < d.n; ++j) {
-    const std::vector<Affine> J_j = unit_jacobian(d, j);
-    A.push_back(affine_matrix(product(inverse_M.entries, J_j, d.n, d.n, d.n).data(), d.n, d.n, d.m));
-    A.back().remainder = (Interval(A.back().remainder) + Interval(inverse_M.tail) * Interval(frobenius_upper(J_j))).upper();
+  const double inertia_route_work = costs_.refinement * (1.0 + count_ - half_);
+  if (!inverse_M.proven) {
+    BoxBound bound = lipschitz_by_inertia_floor(model_, d, J, vertices_, half_, count_);
+    bound.work = costs_.tensors + inertia_route_work;
+    return bound;
   }
-  std::vector<Affine> F(static_cast<std::size_t>(d.n * d.n));
-  for (int i = 0; i < d.n * d.n; ++i) F[i] = Affine(model_.friction(i / d.n, i % d.n));
-  AffineMatrix R = affine_matrix(product(inverse_M.entries, F, d.n, d.n, d.n).data(), d.n, d.n, d.m);
-  R.remainder = (Interval(R.remainder) + Interval(inverse_M.tail) * Interval(frobenius_upper(F))).upper();
-  const double R_norm = frictionless_ ? 0.0 : norm_upper(R, kInfinity);
-  BoxBound bound{0.0, {}};
-  for (unsigned c = frictionless_ ? half_ : 0u; c < count_; ++c) {
-    const AffineMatrix Aw = linear_combination(A, vertices_.col(c));
-    weigh_sides(Aw, d, bound.split_weight);
-    const double floor = std::max(bound.upper, lower);
-    bound.upper = std::max(bound.upper, frictionless_ ? norm_upper(Aw, floor) : patterns_upper(Aw, R, R_norm, d.n, floor));
+  const LipschitzTerms t = lipschitz_terms(model_, d, inverse_M);
+  BoxBound bound{every_choice_upper(t.A, velocity_bounds_, t.R), {}, costs_.tensors};
+  if (bound.upper <= lower) {  // cannot beat the value attained: no choice needs enumerating
+    weigh_sides(linear_combination(t.A, velocity_bounds_), d, bound.split_weight);
+    return bound;
   }
+  double cap = kInfinity;
+  if (bound.upper > 2.0 * lower) {
+    BoxBound by_inertia = lipschitz_by_inertia_floor(model_, d, J, vertices_, half_, count_);
+    bound.work += inertia_route_work;
+    if (by_inertia.upper <= lower) return {by_inertia.upper, std::move(by_inertia.split_weight), bound.work};
+    cap = by_inertia.upper;
+  }
+  const VelocityChoices choices{vertices_, frictionless_ ? half_ : 0u, count_, frictionless_, costs_};
+  bound.upper = std::min(cap, choices_upper(t, d, choices, lower, bound.split_weight, bound.work));
   return bound;
 }
 

@@ -71,8 +71,8 @@ void report(const BranchAndBoundOptions& options, const BranchAndBoundResult& r,
   p.relative_gap = relative_gap(r.lower, upper);
   p.target_gap = options.relative_gap;
   p.seconds = std::chrono::duration<double>(now - start).count();
-  if (options.deadline != std::chrono::steady_clock::time_point::max())
-    p.seconds_left = std::max(0.0, std::chrono::duration<double>(options.deadline - now).count());
+  p.work = r.work;
+  p.work_budget = options.work_budget;
   options.progress(p);
 }
 
@@ -108,18 +108,24 @@ BranchAndBoundResult branch_and_bound(const BranchAndBoundProblem& problem, cons
   {
     const UpwardRounding upward;
     BoxBound first = problem.bound(problem.domain, r.lower);
+    r.work = first.work;
     queue.push({problem.domain, first.upper, std::move(first.split_weight), next_id++});
   }
   r.boxes = 1;
   double pruned_upper = 0.0;  // the largest bound of a discarded box: below the attained value, but proven
   ParallelFor pool(options.threads);
   while (true) {
-    if (queue.empty() || relative_gap(r.lower, queue.top().upper) <= options.relative_gap) {
+    // A box of no sides (nothing to search) is a point: its bound is final.
+    if (queue.empty() || problem.domain.empty() || relative_gap(r.lower, queue.top().upper) <= options.relative_gap) {
       r.stop = SearchStop::gap;
       break;
     }
     if (r.boxes >= options.max_boxes) {
       r.stop = SearchStop::boxes;
+      break;
+    }
+    if (r.work >= options.work_budget) {
+      r.stop = SearchStop::budget;
       break;
     }
     if (std::chrono::steady_clock::now() >= options.deadline) {
@@ -138,6 +144,7 @@ BranchAndBoundResult branch_and_bound(const BranchAndBoundProblem& problem, cons
         r.argmax = child.midpoint;
       }
     for (Child& child : children) {
+      r.work += child.bound.work;
       if (child.bound.upper > r.lower)
         queue.push({std::move(child.x), child.bound.upper, std::move(child.bound.split_weight), next_id++});
       else

@@ -16,26 +16,36 @@ namespace obsgain {
 
 namespace {
 
-// The deadline of a bound that gets `share` of what is left of the budget when it starts.
-std::chrono::steady_clock::time_point share_of_budget(const CertifiedOptions& options,
-                                                      std::chrono::steady_clock::time_point start, double share) {
-  if (options.budget_seconds <= 0.0) return std::chrono::steady_clock::time_point::max();
-  const auto now = std::chrono::steady_clock::now();
-  const double left = std::max(0.0, options.budget_seconds - std::chrono::duration<double>(now - start).count());
-  return now + std::chrono::duration_cast<std::chrono::steady_clock::duration>(std::chrono::duration<double>(share * left));
-}
+constexpr double kInfinity = std::numeric_limits<double>::infinity();
 
-JointSearchOptions search_options(const CertifiedOptions& options, std::chrono::steady_clock::time_point deadline,
-                                  const char* name) {
-  JointSearchOptions o;
-  o.relative_gap = options.relative_gap;
-  o.max_boxes = options.max_boxes;
-  o.deadline = deadline;
-  o.threads = options.threads;
-  o.name = name;
-  o.progress = options.progress;
-  return o;
-}
+// The searches of one certification: each gets a share of the work budget left when it starts, and all stop at the
+// wall-clock safety limit.
+class BudgetShares {
+ public:
+  explicit BudgetShares(const CertifiedOptions& options) : options_(options) {
+    if (options.budget_seconds <= 0.0) return;
+    const double limit = options.wall_limit_seconds.value_or(3.0 * options.budget_seconds + 30.0);
+    deadline_ = std::chrono::steady_clock::now() +
+                std::chrono::duration_cast<std::chrono::steady_clock::duration>(std::chrono::duration<double>(limit));
+  }
+  BranchAndBoundOptions next(double share, const char* name) const {
+    BranchAndBoundOptions o;
+    o.relative_gap = options_.relative_gap;
+    o.max_boxes = options_.max_boxes;
+    o.work_budget = options_.budget_seconds > 0.0 ? share * std::max(0.0, options_.budget_seconds - used_) : kInfinity;
+    o.deadline = deadline_;
+    o.threads = options_.threads;
+    o.name = name;
+    o.progress = options_.progress;
+    return o;
+  }
+  void spent(const BoundBracket& b) { used_ += b.work; }
+
+ private:
+  const CertifiedOptions& options_;
+  std::chrono::steady_clock::time_point deadline_ = std::chrono::steady_clock::time_point::max();
+  double used_ = 0.0;
+};
 
 }  // namespace
 
@@ -52,23 +62,26 @@ std::optional<CertifiedBounds> certify_bounds(const Model& model, const BoundRep
   const Eigen::VectorXd& V = numeric.velocity_bounds;
   const JointSearch s = joint_search(model, configuration_joints(model));
   const BoxBounds boxes(model, s, V);
-  const auto start = std::chrono::steady_clock::now();
   // The budget goes to what the design rests on first: L_joint for the default certificate, M0 and B (L_paper)
   // for the paper's Lipschitz constant; what a bound leaves unused passes to the next.
   const bool joint = options.focus == LipschitzFocus::joint;
+  BudgetShares budget(options);
   CertifiedBounds result;
   const auto run_L = [&](double share) {
     result.L_joint = search_joints(s, [&](const auto& box, double lower) { return boxes.joint_lipschitz(box, lower); },
                                    [&](const Eigen::VectorXd& q) { return max_joint_lipschitz_norm(model, q, V); },
-                                   numeric.L_joint.q, search_options(options, share_of_budget(options, start, share), "L_joint"));
+                                   numeric.L_joint.q, budget.next(share, "L_joint"));
+    budget.spent(result.L_joint);
   };
-  if (joint) run_L(0.75);
+  if (joint) run_L(0.9);
   result.M0 = search_joints(s, [&](const auto& box, double) { return boxes.inverse_inertia(box); },
                             [&](const Eigen::VectorXd& q) { return inverse_inertia_norm(model, q); }, numeric.M0.q,
-                            search_options(options, share_of_budget(options, start, joint ? 0.6 : 0.5), "M0"));
+                            budget.next(joint ? 0.6 : 0.5, "M0"));
+  budget.spent(result.M0);
   result.B = search_joints(s, [&](const auto& box, double lower) { return boxes.jacobian(box, lower); },
                            [&](const Eigen::VectorXd& q) { return max_coriolis_jacobian_norm(model, q, V); }, numeric.B.q,
-                           search_options(options, share_of_budget(options, start, joint ? 1.0 : 0.8), "B"));
+                           budget.next(joint ? 1.0 : 0.8, "B"));
+  budget.spent(result.B);
   if (!joint) run_L(1.0);
   return result;
 }

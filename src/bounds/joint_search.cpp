@@ -32,20 +32,13 @@ JointSearch joint_search(const Model& model, const std::vector<int>& joints) {
 
 BoundBracket search_joints(const JointSearch& search, const std::function<BoxBound(const std::vector<Interval>&, double)>& bound,
                            const std::function<double(const Eigen::VectorXd&)>& value, const Eigen::VectorXd& seed,
-                           const JointSearchOptions& options) {
+                           const BranchAndBoundOptions& options) {
   BranchAndBoundProblem problem;
   problem.domain = search.domain;
   problem.bound = bound;
   problem.value = [&](const Eigen::VectorXd& x) { return value(search.configuration(x)); };
-  BranchAndBoundOptions o;
-  o.relative_gap = options.relative_gap;
-  o.max_boxes = options.max_boxes;
-  o.deadline = options.deadline;
-  o.threads = options.threads;
-  o.name = options.name;
-  o.progress = options.progress;
-  const BranchAndBoundResult r = branch_and_bound(problem, search.coordinates(seed), o);
-  return {r.lower, r.upper, search.configuration(r.argmax), r.boxes, r.seconds, r.stop};
+  const BranchAndBoundResult r = branch_and_bound(problem, search.coordinates(seed), options);
+  return {r.lower, r.upper, search.configuration(r.argmax), r.boxes, r.seconds, r.work, r.stop};
 }
 
 }  // namespace obsgain

@@ -118,10 +118,12 @@ std::optional<BoundBracket> certify_position_sensitivity(const Model& model, con
     v_box.emplace_back(-velocity_bounds(j), velocity_bounds(j));
   }
   const IntervalMatrix v_products = products_of(v_box);
+  // A box's counted work in reference seconds (as box_bounds.hpp's costs: a fit of timings, two cores).
+  const double box_cost = 6e-6 * n * n * n / 2;
   const auto box_upper = [&](const std::vector<Interval>& box, double) {
     std::vector<DualInterval> q;
     for (int j = 0; j < n; ++j) q.push_back(DualInterval::variable(box[static_cast<std::size_t>(j)], j, n));
-    BoxBound bound{norm_upper_bound(sensitivity_enclosure(sensitivity_terms(model, q), a_box, v_products)), {}};
+    BoxBound bound{norm_upper_bound(sensitivity_enclosure(sensitivity_terms(model, q), a_box, v_products)), {}, box_cost};
     // No second derivatives to weigh the sides by: split the widest (relative to its domain).
     for (int k = 0; k < n; ++k) bound.split_weight.push_back(boost::numeric::width(box[k]) / boost::numeric::width(s.domain[k]));
     return bound;
@@ -131,12 +133,15 @@ std::optional<BoundBracket> certify_position_sensitivity(const Model& model, con
   const auto point = [&](const Eigen::VectorXd& q) { return sensitivity_at(model, q, a_vertices, v_vertices, choices); };
   Eigen::VectorXd seed(n);
   for (int j = 0; j < n; ++j) seed(j) = centre(s.domain[j]);
-  JointSearchOptions o;
+  BranchAndBoundOptions o;
   o.relative_gap = options.relative_gap;
   o.max_boxes = options.max_boxes;
-  if (options.budget_seconds > 0.0)
-    o.deadline = std::chrono::steady_clock::now() + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                                                        std::chrono::duration<double>(options.budget_seconds));
+  if (options.budget_seconds > 0.0) {
+    o.work_budget = options.budget_seconds;
+    const double limit = options.wall_limit_seconds.value_or(3.0 * options.budget_seconds + 30.0);
+    o.deadline = std::chrono::steady_clock::now() +
+                 std::chrono::duration_cast<std::chrono::steady_clock::duration>(std::chrono::duration<double>(limit));
+  }
   o.threads = options.threads;
   o.name = "C_q";
   o.progress = options.progress;

@@ -117,7 +117,7 @@ void choose_lipschitz(Design& d, const BoundReport& bounds, const DesignOptions&
   d.L_source = options.L_override ? "override" : to_string(options.lipschitz);
   if (!std::isfinite(d.L_used))
     d.unfinished = fmt::format("L_{} has no finite proven upper bound: the interval search stopped before it could bound "
-                               "M(q)⁻¹ on every box (raise --bound-budget or --bound-boxes; real arms have rotor inertia: "
+                               "M(q)⁻¹ on every box (raise --bound-budget; real arms have rotor inertia: "
                                "--armature)",
                                to_string(options.lipschitz));
   if (options.L_override) {

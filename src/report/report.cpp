@@ -25,9 +25,27 @@ nlohmann::json bound_json(const BoundMaximum& m) {
   return j;
 }
 
+const char* stop_name(SearchStop stop) {
+  switch (stop) {
+    case SearchStop::gap: return "gap";
+    case SearchStop::boxes: return "boxes";
+    case SearchStop::budget: return "budget";
+    case SearchStop::time: return "wall-clock limit";
+  }
+  return "";
+}
+
+// What ended a search, for the text report: nothing when the gap was reached.
+std::string stop_note(SearchStop stop) {
+  if (stop == SearchStop::budget) return " (stopped by the budget, --bound-budget)";
+  if (stop == SearchStop::boxes) return " (stopped by the box limit)";
+  if (stop == SearchStop::time) return " (stopped by the wall-clock safety limit: may differ between runs)";
+  return "";
+}
+
 nlohmann::json bracket_json(const BoundBracket& b) {
-  return {{"lower", b.lower}, {"upper", b.upper}, {"argmax_q", to_json(b.argmax)}, {"boxes", b.boxes},
-          {"seconds", b.seconds}};
+  return {{"lower", b.lower},   {"upper", b.upper},          {"argmax_q", to_json(b.argmax)}, {"boxes", b.boxes},
+          {"work", b.work},     {"stop", stop_name(b.stop)}, {"seconds", b.seconds}};
 }
 
 std::string where(const BoundMaximum& m) {
@@ -118,10 +136,7 @@ nlohmann::json to_json(const Deployment& deployment) {
       {"encoder_resolution", to_json(c.encoder_resolution)},
       {"acceleration_bounds", to_json(c.acceleration_bounds)},
       {"measurement_error", to_json(c.measurement_error)},
-      {"position_sensitivity",
-       {{"lower", c.position_sensitivity.lower}, {"upper", c.position_sensitivity.upper},
-        {"argmax_q", to_json(c.position_sensitivity.argmax)}, {"boxes", c.position_sensitivity.boxes},
-        {"seconds", c.position_sensitivity.seconds}}},
+      {"position_sensitivity", bracket_json(c.position_sensitivity)},
       {"M0", c.M0},
       {"model_gain", c.model_gain},
       {"ultimate_position_error", to_json(c.ultimate_position_error)},
@@ -244,8 +259,7 @@ std::string format_bounds(const Design& d) {
     out << "  certified brackets [attained, proven upper] (interval branch and bound; the design uses the upper ends):\n";
     for (const auto& [name, k] : {std::pair{"M0", &b.M0_bracket}, {"B", &b.B_bracket}, {"L_joint", &b.L_joint_bracket}})
       out << fmt::format("  {:<8} [{:.10g}, {:.10g}]  gap {:.1e}, {} boxes, {:.2f} s{}\n", name, k->lower, k->upper,
-                         (k->upper - k->lower) / k->upper, k->boxes, k->seconds,
-                         k->stop == SearchStop::time ? " (stopped by the wall-clock budget)" : "");
+                         (k->upper - k->lower) / k->upper, k->boxes, k->seconds, stop_note(k->stop));
   }
   out << fmt::format("  {:<8} {:>14.7f}\n", "||F||", b.F_norm);
   out << fmt::format("  {:<8} {:>14.7f}   = M0 (B + ||F||)\n", "L_paper", b.L_paper);

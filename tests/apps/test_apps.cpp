@@ -206,6 +206,60 @@ TEST(Urdf, DesignAndValidateAThreeJointArm) {
   EXPECT_DOUBLE_EQ(report["certified_gamma"].get<double>(), 5.0);
 }
 
+// A single joint: nothing to search (M is constant, A = 0), and the design and its validation still work.
+TEST(Urdf, AOneJointRobotIsDesignedAndValidated) {
+  const std::string examples = OBSGAIN_EXAMPLES_DIR;
+  const std::string design = ::testing::TempDir() + "/obsgain_pendulum_design.json";
+  const AppRun d = run("design-gains", "--robot " + examples + "/pendulum.urdf --gamma 5 --json " + design);
+  ASSERT_EQ(d.exit_code, 0) << d.err;
+  const nlohmann::json j = read_json(design);
+  EXPECT_TRUE(j["design"]["certified"].get<bool>());
+  // M = I_yy + m l² = 0.02 + 1 · 0.5² (the model's inertia about the hinge).
+  const auto& M0 = j["bounds"]["brackets"]["M0"];
+  EXPECT_NEAR(M0["lower"].get<double>(), 1.0 / 0.27, 1e-12);
+  EXPECT_NEAR(M0["upper"].get<double>(), 1.0 / 0.27, 1e-12);
+  EXPECT_LT(j["bounds"]["brackets"]["L_joint"]["upper"].get<double>(), 1e-100);
+  const AppRun r = run("monte-carlo", "--design " + design + " --trials 4 --horizon 0.3 --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(nlohmann::json::parse(r.out)["passed"], 4);
+}
+
+// A search stopped before M(q)⁻¹ was bounded on every box proves nothing: an unmet request (exit 1) that says what
+// would help, not bad input.
+TEST(DesignGainsApp, AnUnfinishedBoundSearchExitsOneAndSaysWhatWouldHelp) {
+  const std::string examples = OBSGAIN_EXAMPLES_DIR;
+  const AppRun r = run("design-gains", "--robot " + examples + "/arm3.urdf --gamma 5 --bound-budget 0.0001 --quiet");
+  EXPECT_EQ(r.exit_code, 1) << r.err;
+  EXPECT_NE(r.err.find("--bound-budget"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("--armature"), std::string::npos) << r.err;
+}
+
+// Every number in the JSON but the wall times is the same for one and two threads and on a second run: the search
+// stops at a budget of counted work, not of wall time.
+TEST(DesignGainsApp, TheSameJsonForAnyThreadCountAndOnEveryRun) {
+  const std::string examples = OBSGAIN_EXAMPLES_DIR;
+  const auto design = [&](int threads) {
+    const AppRun r = run("design-gains", "--robot " + examples + "/arm3.urdf --gamma 5 --bound-budget 0.5 --quiet --json --threads " +
+                                             std::to_string(threads));
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    nlohmann::json j = nlohmann::json::parse(r.out);
+    const auto strip = [](auto& self, nlohmann::json& x) -> void {
+      if (x.is_object()) {
+        x.erase("seconds");
+        x.erase("wall_seconds");
+      }
+      if (x.is_structured())
+        for (auto& child : x) self(self, child);
+    };
+    strip(strip, j);
+    return j;
+  };
+  const nlohmann::json one = design(1);
+  EXPECT_EQ(one["bounds"]["brackets"]["L_joint"]["stop"], "budget");  // the budget, not the gap, ended it
+  EXPECT_EQ(one, design(2));
+  EXPECT_EQ(one, design(2));
+}
+
 TEST(Urdf, MalformedRobotsExitTwoWithOneLine) {
   const std::string examples = OBSGAIN_EXAMPLES_DIR;
   const std::string broken = ::testing::TempDir() + "/obsgain_broken.urdf";

@@ -31,6 +31,11 @@ AffineMatrix linear_combination(const std::vector<AffineMatrix>& terms, const Ei
 AffineMatrix scale_columns(const AffineMatrix& X, const Eigen::VectorXd& d);
 AffineMatrix sum(const AffineMatrix& X, const AffineMatrix& Y);
 
+// An upper bound of ||Σ_j w_j X_j D + R|| for every |w_j| <= V_j and diagonal D in [0, 1]ⁿ at once, from entry
+// moduli: Σ_j V_j (|C_j| + Σ_k |G_jk|) + |C_R| + Σ_k |G_Rk| in Frobenius norm, plus the remainders. No enumeration
+// of vertices or patterns: the cheap test that a box cannot beat a value attained elsewhere.
+double every_choice_upper(const std::vector<AffineMatrix>& X, const Eigen::VectorXd& V, const AffineMatrix& R);
+
 // Proven bounds over the box. `floor`: the caller only needs to know whether the bound exceeds it; once a cheap
 // bound is below it, the finer ones are skipped (the value returned is then still an upper bound).
 double norm_upper(const AffineMatrix& X, double floor);

@@ -37,8 +37,8 @@ struct BoundBracket {
   double lower = 0.0, upper = 0.0;
   Eigen::VectorXd argmax;
   int boxes = 0;
-  double seconds = 0.0;
-  SearchStop stop = SearchStop::gap;  // time: the wall-clock limit ended it (the bracket may differ between runs)
+  double seconds = 0.0, work = 0.0;  // wall time; counted work (reference seconds, branch_and_bound.hpp)
+  SearchStop stop = SearchStop::gap;  // time: the wall-clock safety limit ended it (the bracket may differ between runs)
 };
 
 struct BoundReport {

@@ -14,6 +14,17 @@
 
 namespace obsgain {
 
+// What the work on one box costs, counted rather than timed so that a budget of work stops every run at the same
+// box: seconds of wall time on the reference machine (two cores like the suite's), fitted to timings of each step
+// on n joints of which m are searched (docs/theory.md, "The budget").
+struct BoxCosts {
+  double inertia;     // M over the box as affine forms
+  double tensors;     // M, the Christoffel tensors and M⁻¹ over the box
+  double refinement;  // one fine norm or eigenvalue bound
+  double choice;      // one vertex or pattern's cheap bound
+};
+BoxCosts box_costs(int n, int m);
+
 class BoxBounds {
  public:
   // Keeps references to the model and the search: they must outlive it.
@@ -27,11 +38,13 @@ class BoxBounds {
  private:
   const Model& model_;
   const JointSearch& search_;
+  Eigen::VectorXd velocity_bounds_;
   Eigen::MatrixXd vertices_;
   // J(q, -w) = -J(q, w): the vertices with w_n < 0 repeat the others for ||J||, and for ||M⁻¹(J D + F)|| too when
   // F = 0 (the full pattern D = I is then the maximum, ||A D|| <= ||A||, and the only one needed).
   unsigned count_, half_;
   bool frictionless_;
+  BoxCosts costs_;
 };
 
 }  // namespace obsgain

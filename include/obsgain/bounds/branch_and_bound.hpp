@@ -14,6 +14,7 @@
 
 #include <chrono>
 #include <functional>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -26,17 +27,20 @@ struct SearchProgress {
   double lower = 0.0, upper = 0.0;  // the bracket so far
   double relative_gap = 0.0, target_gap = 0.0;
   double seconds = 0.0;
-  double seconds_left = -1.0;  // until the wall-clock limit; -1: none
+  double work = 0.0, work_budget = 0.0;  // counted work so far, and where the search stops (infinite: none)
 };
 
 using ProgressCallback = std::function<void(const SearchProgress&)>;
 
 // What ended a search.
-enum class SearchStop { gap, boxes, time };
+// budget: the counted work reached the budget (deterministic); time: the wall-clock limit, a safety net only (the
+// bracket may then differ between runs).
+enum class SearchStop { gap, boxes, budget, time };
 
 struct BranchAndBoundOptions {
   double relative_gap = 1e-6;  // stop when upper - lower <= relative_gap * upper
   int max_boxes = 2000000;     // stop after this many boxes (deterministic)
+  double work_budget = std::numeric_limits<double>::infinity();  // stop once the boxes' counted work reaches it
   std::chrono::steady_clock::time_point deadline = std::chrono::steady_clock::time_point::max();  // wall clock
   int threads = 0;             // 0: all cores
   const char* name = "";
@@ -45,9 +49,12 @@ struct BranchAndBoundOptions {
 
 // An upper bound of f over one box, and how much each side contributes to the bound's excess (the side with the
 // largest weight is split next; a side of weight 0 never is).
+// `work`: what the evaluation cost, counted (not timed) in reference seconds, so that a budget of work ends the
+// search at the same box on every machine and for any thread count (docs/theory.md, "The budget").
 struct BoxBound {
   double upper = 0.0;
   std::vector<double> split_weight;
+  double work = 0.0;
 };
 
 struct BranchAndBoundProblem {
@@ -63,7 +70,7 @@ struct BranchAndBoundResult {
   double lower = 0.0, upper = 0.0;
   Eigen::VectorXd argmax;  // where `lower` is attained
   int boxes = 0;
-  double seconds = 0.0;
+  double seconds = 0.0, work = 0.0;
   SearchStop stop = SearchStop::gap;
 };
 

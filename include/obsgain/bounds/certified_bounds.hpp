@@ -18,8 +18,14 @@ enum class LipschitzFocus { joint, paper };
 
 struct CertifiedOptions {
   double relative_gap = 1e-6;  // stop a bound when upper - lower <= relative_gap * upper
-  double budget_seconds = 120;  // wall time for the three bounds together; 0 = until the gap is reached
-  LipschitzFocus focus = LipschitzFocus::joint;  // the first gets 3/4 of the budget; a bound's leftover passes on
+  // The work for the three bounds together, counted in reference seconds (about the wall time on the reference
+  // two-core machine): the search stops at the same box on every machine and for any thread count, so the same
+  // command gives the same bounds. 0 = until the gap is reached.
+  double budget_seconds = 120;
+  // A safety net for a machine far slower than the reference: every search also stops after this many wall
+  // seconds from the start (the bracket may then differ between runs, and says so). Default 3 × budget + 30 s.
+  std::optional<double> wall_limit_seconds;
+  LipschitzFocus focus = LipschitzFocus::joint;  // the focus gets 90 % of the budget; what it leaves passes on
   int max_boxes = 2000000;      // per bound; reaching it leaves a wider (still valid) bracket
   int threads = 0;              // 0: all cores
   ProgressCallback progress;    // optional
@@ -40,7 +46,7 @@ std::optional<CertifiedBounds> certify_bounds(const Model& model, const BoundRep
 // C_q = sup ||∂h/∂q|| over the joint domain, a in the acceleration box and v in the velocity box, with
 // h(q) = M(q) a + A(q, v) + g(q): how far the model's prediction of the torque moves when it is evaluated at a
 // measured rather than the true position (the sampled observer's certificate, deployment.hpp). The budget is
-// options.budget_seconds; std::nullopt when sensitivity_unavailable says why not.
+// options.budget_seconds (counted work, as above); std::nullopt when sensitivity_unavailable says why not.
 std::string sensitivity_unavailable(const Model& model);
 std::optional<BoundBracket> certify_position_sensitivity(const Model& model, const Eigen::VectorXd& velocity_bounds,
                                                          const Eigen::VectorXd& acceleration_bounds,

@@ -6,7 +6,6 @@
 #include "obsgain/bounds/branch_and_bound.hpp"
 #include "obsgain/model/model.hpp"
 
-#include <chrono>
 #include <functional>
 #include <vector>
 
@@ -23,19 +22,10 @@ struct JointSearch {
 // The joints' domains: inside their limits, one period (widened by an ulp) for continuous ones.
 JointSearch joint_search(const Model& model, const std::vector<int>& joints);
 
-struct JointSearchOptions {
-  double relative_gap = 1e-6;
-  int max_boxes = 2000000;
-  std::chrono::steady_clock::time_point deadline = std::chrono::steady_clock::time_point::max();
-  int threads = 0;
-  const char* name = "";
-  ProgressCallback progress;
-};
-
 // sup of value(q) over the search: `bound(box, lower)` proves an upper bound over a box of the searched
 // coordinates; `value(q)` evaluates at a full configuration; `seed` (a full configuration) is tried first.
 BoundBracket search_joints(const JointSearch& search, const std::function<BoxBound(const std::vector<Interval>&, double)>& bound,
                            const std::function<double(const Eigen::VectorXd&)>& value, const Eigen::VectorXd& seed,
-                           const JointSearchOptions& options);
+                           const BranchAndBoundOptions& options);
 
 }  // namespace obsgain

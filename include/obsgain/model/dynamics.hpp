@@ -5,6 +5,7 @@
 
 #include "obsgain/model/chain_dynamics.hpp"
 #include "obsgain/model/model.hpp"
+#include "obsgain/numerics/dual.hpp"
 
 #include <Eigen/Dense>
 
@@ -41,6 +42,32 @@ void coriolis_tensors_of(const Model& model, const S* q, S* N) {
   ChainKinematics<S> k;
   chain_kinematics(chain, q, k);
   chain_coriolis_tensors(chain, k, N);
+}
+
+// N_i[j][k] = ½ (∂M_ij/∂q_k + ∂M_ik/∂q_j - ∂M_jk/∂q_i), the Christoffel symbols of the first kind, from M on
+// forward-mode duals along `joints` (every joint M depends on: the other derivatives vanish; at most
+// kMaxDirections). On affine forms the three derivatives share their noise symbols, so their first-order parts
+// combine exactly and only second-order remainders add: 4x narrower than the Newton–Euler tensors on 6- and
+// 7-joint arms (docs/theory.md, "Affine forms").
+template <class S>
+void christoffel_tensors_of(const Model& model, const std::vector<int>& joints, const S* q, S* N) {
+  if (std::holds_alternative<Planar2RParameters>(model.structure)) return coriolis_tensors_of(model, q, N);
+  const int n = model.dof(), directions = static_cast<int>(joints.size());
+  std::vector<Dual<S>> qd(static_cast<std::size_t>(n)), M(static_cast<std::size_t>(n * n));
+  std::vector<int> direction(static_cast<std::size_t>(n), -1);
+  for (int i = 0; i < n; ++i) qd[i] = Dual<S>(q[i]);
+  for (int d = 0; d < directions; ++d) {
+    direction[joints[d]] = d;
+    qd[joints[d]] = Dual<S>::variable(q[joints[d]], d, directions);
+  }
+  mass_matrix_of(model, qd.data(), M.data());
+  const auto dM = [&](int i, int j, int k) { return direction[k] < 0 ? S(0.0) : M[i * n + j].derivative[direction[k]]; };
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j)
+      for (int k = j; k < n; ++k) {
+        N[(i * n + j) * n + k] = 0.5 * (dM(i, j, k) + dM(i, k, j) - dM(j, k, i));
+        N[(i * n + k) * n + j] = N[(i * n + j) * n + k];
+      }
 }
 
 template <class S>

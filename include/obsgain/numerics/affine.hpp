@@ -9,13 +9,16 @@
 // (docs/theory.md, "Affine forms").
 #pragma once
 
+#include "obsgain/numerics/interval.hpp"
+
+#include <algorithm>
 #include <array>
 #include <cmath>
 
 namespace obsgain {
 
-// Noise symbols per form: the searched joints of a chain (at most seven) and a spare.
-inline constexpr int kAffineSymbols = 8;
+// Noise symbols per form: one per searched joint (a chain of up to eight joints searches seven).
+inline constexpr int kAffineSymbols = 7;
 
 struct Affine {
   double c = 0.0;                          // centre
@@ -94,37 +97,60 @@ inline Affine operator*(double s, const Affine& x) {
   return z;
 }
 
-// (xc + xl + xe)(yc + yl + ye): the centre, the linear terms xc yl + yc xl, and a remainder bounding xl yl by
-// (Σ|x_k|)(Σ|y_k|) and every product with an error term by the factors' ranges.
-// The rounding of a_k = fl(fl(xc y_k) + fl(yc x_k)) is at most 2⁻⁵² (|xc y_k| + |yc x_k| + |a_k|) (each with its own
-// rounding, covered by the inflation): summed over k, 2⁻⁵² · 2 (|xc| Y + |yc| X).
+// (xc + xl + xe)(yc + yl + ye): the centre, the linear terms xc yl + yc xl, and the quadratic xl yl: its square
+// terms x_k y_k ε_k² lie between 0 and x_k y_k, so half their sum moves to the centre and half their moduli stay,
+// the cross terms are bounded by Σ_{k≠l} |x_k y_l| = (Σ|x_k|)(Σ|y_l|) - Σ|x_k y_k|; every product with an error
+// term is bounded by the factors' ranges.
+// Rounding: a_k = fl(fl(xc y_k) + fl(yc x_k)) is within 2⁻⁵² (|xc y_k| + |yc x_k| + |a_k|) (each with its own
+// rounding, covered by the inflation): summed over k, 2⁻⁵² · 2 (|xc| Y + |yc| X); the centre's shift is a sum of
+// products no larger than X Y, and so is its rounding.
 inline Affine operator*(const Affine& x, const Affine& y) {
-  Affine z(x.c * y.c);
-  double X = 0.0, Y = 0.0;
+  double X = 0.0, Y = 0.0, square = 0.0, square_abs = 0.0;
   for (int k = 0; k < kAffineSymbols; ++k) {
-    z.a[k] = x.c * y.a[k] + y.c * x.a[k];
     X += std::abs(x.a[k]);
     Y += std::abs(y.a[k]);
+    const double p = x.a[k] * y.a[k];
+    square += p;
+    square_abs += std::abs(p);
   }
+  Affine z(x.c * y.c + 0.5 * square);
+  for (int k = 0; k < kAffineSymbols; ++k) z.a[k] = x.c * y.a[k] + y.c * x.a[k];
   const double ax = std::abs(x.c), ay = std::abs(y.c);
-  z.r = affine_detail::remainder(X * Y + (ax + X) * y.r + (ay + Y) * x.r + x.r * y.r +
-                                 kRoundoff * (std::abs(z.c) + 2.0 * (ax * Y + ay * X)));
+  z.r = affine_detail::remainder(X * Y - 0.5 * square_abs + (ax + X) * y.r + (ay + Y) * x.r + x.r * y.r +
+                                 kRoundoff * (2.0 * std::abs(z.c) + 2.0 * (ax * Y + ay * X) + 10.0 * X * Y));
   return z;
 }
 
 namespace affine_detail {
 
-// f(c + t) = f(c) + f'(c) t + R with |R| <= t²/2 (|f''| <= 1 for sin and cos); value = f(c), slope = f'(c), both
-// from the C library (within an ulp, counted twice).
-inline Affine first_order(const Affine& x, double value, double slope) {
-  Affine z(value);
+// The argument's range [c - deviation, c + deviation], rounded outward.
+inline Interval argument_range(double c, double deviation) {
+  const double slack = 2.0 * kRoundoff * (std::abs(c) + deviation) + kUnderflow;
+  return Interval(c - deviation - slack, c + deviation + slack);
+}
+
+// f(c + t) = f(c) + f'(c) t + R for f = sin or cos, R = f''(ξ) t²/2 = -f(ξ) t²/2 with f(ξ) in `range`, f's range over
+// the argument's: R lies between 0 and -range · ρ²/2, so its midpoint moves to the centre and its half-width is
+// the remainder (half the plain Taylor remainder where f keeps its sign). On a wide argument, where that remainder
+// alone is wider than the constant form mid(range) ± rad(range), the constant form is taken. value = f(c), slope = f'(c), both from the C library (within
+// an ulp, counted twice); `range` is rigorous (interval.hpp).
+inline Affine second_order_centred(const Affine& x, double value, double slope, const Interval& range) {
   double X = 0.0;
-  for (int k = 0; k < kAffineSymbols; ++k) {
-    z.a[k] = slope * x.a[k];
-    X += std::abs(x.a[k]);
-  }
+  for (double a : x.a) X += std::abs(a);
   const double deviation = remainder(X + x.r);
-  z.r = remainder(0.5 * deviation * deviation + std::abs(slope) * x.r + kRoundoff * (std::abs(value) + 2.0 + 3.0 * X));
+  const double half_square = 0.5 * deviation * deviation * kAffineInflation;
+  const double low = std::min(0.0, -range.upper()) * half_square, high = std::max(0.0, -range.lower()) * half_square;
+  const double shift = 0.5 * (low + high);
+  Affine z(value + shift);
+  for (int k = 0; k < kAffineSymbols; ++k) z.a[k] = slope * x.a[k];
+  z.r = remainder(0.5 * (high - low) + std::abs(slope) * x.r +
+                  kRoundoff * (2.0 * std::abs(z.c) + 2.0 + 3.0 * X + 2.0 * (high - low)));
+  const double constant_radius = 0.5 * (range.upper() - range.lower());
+  if (constant_radius < z.r) {
+    Affine constant(0.5 * (range.lower() + range.upper()));
+    constant.r = remainder(constant_radius + 2.0 * kRoundoff * (std::abs(constant.c) + constant_radius));
+    return constant;
+  }
   return z;
 }
 
@@ -139,7 +165,13 @@ inline Affine& operator+=(Affine& x, const Affine& y) { return x = x + y; }
 inline Affine& operator-=(Affine& x, const Affine& y) { return x = x - y; }
 inline Affine& operator*=(Affine& x, const Affine& y) { return x = x * y; }
 
-inline Affine cos(const Affine& x) { return affine_detail::first_order(x, std::cos(x.c), -std::sin(x.c)); }
-inline Affine sin(const Affine& x) { return affine_detail::first_order(x, std::sin(x.c), std::cos(x.c)); }
+inline Affine cos(const Affine& x) {
+  const Interval range = boost::numeric::cos(affine_detail::argument_range(x.c, x.radius()));
+  return affine_detail::second_order_centred(x, std::cos(x.c), -std::sin(x.c), range);
+}
+inline Affine sin(const Affine& x) {
+  const Interval range = boost::numeric::sin(affine_detail::argument_range(x.c, x.radius()));
+  return affine_detail::second_order_centred(x, std::sin(x.c), std::cos(x.c), range);
+}
 
 }  // namespace obsgain

@@ -1,0 +1,170 @@
+// Affine forms (numerics/affine.hpp) and the dynamics evaluated on them over boxes of configurations (the
+// certified bounds' enclosures): they contain the double values at random points of random boxes, and their
+// excess, the remainder, shrinks as the square of the box's width.
+#include "obsgain/bounds/box_bounds.hpp"
+#include "obsgain/bounds/bounds.hpp"
+#include "obsgain/bounds/joint_search.hpp"
+#include "obsgain/model/dynamics.hpp"
+#include "obsgain/numerics/affine.hpp"
+#include "obsgain/parsers/robots.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numeric>
+#include <random>
+
+namespace {
+
+const std::string examples = OBSGAIN_EXAMPLES_DIR;
+
+// x(ε) without its remainder, and whether a value lies within the remainder of it (plus `slack` for the double
+// evaluation the value comes from).
+double linear_part(const obsgain::Affine& x, const std::vector<double>& epsilon) {
+  double v = x.c;
+  for (std::size_t k = 0; k < epsilon.size(); ++k) v += x.a[k] * epsilon[k];
+  return v;
+}
+bool encloses(const obsgain::Affine& x, const std::vector<double>& epsilon, double value, double slack) {
+  return std::abs(value - linear_part(x, epsilon)) <= x.r + slack;
+}
+
+TEST(AffineForms, EncloseCosineSineAndProductsAtRandomPoints) {
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0), centre(-4.0, 4.0), radius(0.0, 4.0);
+  for (int trial = 0; trial < 2000; ++trial) {
+    // Two symbols, narrow and wide arguments (wide ones take the constant form).
+    const obsgain::Affine x = obsgain::Affine::symbol(centre(rng), radius(rng), 0) +
+                              obsgain::Affine::symbol(0.0, 0.1 * radius(rng), 1);
+    const obsgain::Affine y = obsgain::Affine::symbol(centre(rng), radius(rng), 1);
+    const obsgain::Affine c = cos(x), s = sin(x), p = x * y, q = cos(x) * sin(y);
+    for (int point = 0; point < 20; ++point) {
+      const std::vector<double> e{unit(rng), unit(rng)};
+      const double xv = linear_part(x, e), yv = linear_part(y, e);
+      EXPECT_TRUE(encloses(c, e, std::cos(xv), 1e-15)) << x.c << " " << x.a[0];
+      EXPECT_TRUE(encloses(s, e, std::sin(xv), 1e-15)) << x.c << " " << x.a[0];
+      EXPECT_TRUE(encloses(p, e, xv * yv, 1e-14));
+      EXPECT_TRUE(encloses(q, e, std::cos(xv) * std::sin(yv), 1e-15));
+    }
+  }
+}
+
+// M and the Christoffel tensors of a model over a box of its searched joints (symbol k: side k).
+struct BoxForms {
+  std::vector<obsgain::Affine> M, N;
+};
+
+BoxForms box_forms(const obsgain::Model& model, const obsgain::JointSearch& s, const Eigen::VectorXd& centre,
+                   const std::vector<double>& radius) {
+  const int n = model.dof();
+  std::vector<obsgain::Affine> q(n);
+  for (int i = 0; i < n; ++i) q[i] = obsgain::Affine(centre(i));
+  for (std::size_t k = 0; k < s.joints.size(); ++k)
+    q[s.joints[k]] = obsgain::Affine::symbol(centre(s.joints[k]), radius[k], static_cast<int>(k));
+  BoxForms f{std::vector<obsgain::Affine>(n * n), std::vector<obsgain::Affine>(n * n * n)};
+  obsgain::mass_matrix_of(model, q.data(), f.M.data());
+  obsgain::christoffel_tensors_of(model, s.joints, q.data(), f.N.data());
+  return f;
+}
+
+class AffineDynamics : public ::testing::TestWithParam<const char*> {};
+
+// Random boxes (narrow and wide), random points inside: M(q) and N_i(q) in double (N by the Newton–Euler pass, an
+// independent computation) lie within the forms.
+TEST_P(AffineDynamics, EncloseMAndTheCoriolisTensorsAtRandomPointsOfRandomBoxes) {
+  const obsgain::Model model = obsgain::load_robot({examples + "/" + GetParam()});
+  const int n = model.dof();
+  const obsgain::JointSearch s = obsgain::joint_search(model, obsgain::configuration_joints(model));
+  const auto m = s.joints.size();
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0), angle(-3.0, 3.0), width(0.0, 1.0);
+  for (int trial = 0; trial < 10; ++trial) {
+    Eigen::VectorXd centre(n);
+    for (int i = 0; i < n; ++i) centre(i) = angle(rng);
+    std::vector<double> radius(m);
+    for (auto& r : radius) r = (trial < 5 ? 0.05 : 1.0) * width(rng);
+    const BoxForms f = box_forms(model, s, centre, radius);
+    for (int point = 0; point < 10; ++point) {
+      std::vector<double> e(m);
+      Eigen::VectorXd q = centre;
+      for (std::size_t k = 0; k < m; ++k) {
+        e[k] = unit(rng);
+        q(s.joints[k]) += e[k] * radius[k];
+      }
+      Eigen::MatrixXd M(n, n);
+      obsgain::mass_matrix(model, q, M);
+      std::vector<Eigen::MatrixXd> N;
+      obsgain::coriolis_tensors(model, q, N);
+      const double slack = 1e-12 * (1.0 + M.norm());  // the double evaluations' rounding
+      for (int r = 0; r < n; ++r)
+        for (int c = 0; c < n; ++c) {
+          EXPECT_TRUE(encloses(f.M[r * n + c], e, M(r, c), slack)) << GetParam() << " M(" << r << "," << c << ")";
+          for (int i = 0; i < n; ++i)
+            EXPECT_TRUE(encloses(f.N[(i * n + r) * n + c], e, N[i](r, c), slack)) << GetParam() << " N" << i;
+        }
+    }
+  }
+}
+
+// The forms' excess is second order: halving the box divides the remainders by four. The exponent is fitted over
+// four widths at a fixed centre (about 2 for every model; a first-order enclosure would give 1).
+TEST_P(AffineDynamics, RemaindersShrinkAsTheSquareOfTheWidth) {
+  const obsgain::Model model = obsgain::load_robot({examples + "/" + GetParam()});
+  const obsgain::JointSearch s = obsgain::joint_search(model, obsgain::configuration_joints(model));
+  const Eigen::VectorXd centre = Eigen::VectorXd::LinSpaced(model.dof(), 0.3, 1.7);
+  std::vector<double> log_w, log_M, log_N;
+  for (double w : {0.2, 0.1, 0.05, 0.025}) {
+    const BoxForms f = box_forms(model, s, centre, std::vector<double>(s.joints.size(), w / 2));
+    const auto total = [](const std::vector<obsgain::Affine>& X) {
+      return std::accumulate(X.begin(), X.end(), 0.0, [](double t, const obsgain::Affine& x) { return t + x.r; });
+    };
+    log_w.push_back(std::log(w));
+    log_M.push_back(std::log(total(f.M)));
+    log_N.push_back(std::log(total(f.N)));
+  }
+  const auto slope = [&](const std::vector<double>& y) {
+    const double mx = std::accumulate(log_w.begin(), log_w.end(), 0.0) / 4, my = std::accumulate(y.begin(), y.end(), 0.0) / 4;
+    double sxy = 0.0, sxx = 0.0;
+    for (int i = 0; i < 4; ++i) {
+      sxy += (log_w[i] - mx) * (y[i] - my);
+      sxx += (log_w[i] - mx) * (log_w[i] - mx);
+    }
+    return sxy / sxx;
+  };
+  for (const auto* remainders : {&log_M, &log_N}) {
+    EXPECT_GT(slope(*remainders), 1.9) << GetParam();
+    EXPECT_LT(slope(*remainders), 2.4) << GetParam();  // a little above 2 where sin or cos keeps its sign
+  }
+}
+
+// The bound of L_joint over a small box is never below the values attained in it, and near the maximum it is
+// within a few per cent of them (the remainder is second order in the box's width).
+TEST_P(AffineDynamics, JointLipschitzBoxBoundsHoldAndAreTightOnSmallBoxes) {
+  const obsgain::Model model = obsgain::load_robot({examples + "/" + GetParam()});
+  const obsgain::JointSearch s = obsgain::joint_search(model, obsgain::configuration_joints(model));
+  const obsgain::BoxBounds boxes(model, s, model.velocity_bounds);
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> unit(0.0, 1.0), angle(-3.0, 3.0);
+  for (int trial = 0; trial < 6; ++trial) {
+    std::vector<obsgain::Interval> box;
+    for (std::size_t k = 0; k < s.joints.size(); ++k) {
+      const double lo = angle(rng);
+      box.emplace_back(lo, lo + 0.02);
+    }
+    const obsgain::UpwardRounding upward;
+    const double bound = boxes.joint_lipschitz(box, 0.0).upper;
+    double attained = 0.0;
+    for (int point = 0; point < 20; ++point) {
+      Eigen::VectorXd x(static_cast<Eigen::Index>(box.size()));
+      for (std::size_t k = 0; k < box.size(); ++k) x(k) = box[k].lower() + unit(rng) * 0.02;
+      attained = std::max(attained, obsgain::max_joint_lipschitz_norm(model, s.configuration(x), model.velocity_bounds));
+    }
+    EXPECT_GE(bound, attained) << GetParam();
+    EXPECT_LE(bound, 1.05 * attained) << GetParam();
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(TwoThreeSixAndSevenJoints, AffineDynamics,
+                         ::testing::Values("pendubot.urdf", "arm3.urdf", "arm6.urdf", "arm7.urdf"));
+
+}  // namespace
