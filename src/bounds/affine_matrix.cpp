@@ -55,12 +55,14 @@ AffineMatrix affine_matrix(const Affine* entries, int rows, int cols, int symbol
   AffineMatrix X;
   X.centre.resize(rows, cols);
   X.slopes.assign(static_cast<std::size_t>(symbols), Eigen::MatrixXd(rows, cols));
+  X.entry_remainder.resize(rows, cols);
   double squares = 0.0;
   for (int i = 0; i < rows; ++i)
     for (int j = 0; j < cols; ++j) {
       const Affine& x = entries[i * cols + j];
       X.centre(i, j) = x.c;
       for (int k = 0; k < symbols; ++k) X.slopes[k](i, j) = x.a[k];
+      X.entry_remainder(i, j) = x.r;
       squares += x.r * x.r;
     }
   X.remainder = up(std::sqrt(up(squares)));
@@ -89,6 +91,7 @@ AffineMatrix scale_columns(const AffineMatrix& X, const Eigen::VectorXd& d) {
   Y.centre = X.centre * d.asDiagonal();
   for (auto& G : Y.slopes) G = G * d.asDiagonal();
   Y.remainder = up(X.remainder * d.cwiseAbs().maxCoeff() + kRoundoff * Y.frobenius_upper());
+  Y.entry_remainder.resize(0, 0);  // known as a norm only from here
   return Y;
 }
 
@@ -174,6 +177,11 @@ double smallest_eigenvalue_lower(const AffineMatrix& X) {
     spread += (V.transpose() * slope * V).cwiseAbs();
     rho += up(product_rounding(V.transpose(), slope) * frobenius(V) + product_rounding(V.transpose() * slope, V));
   }
+  // The remainder in the same basis, entry by entry where its entries are known: |VᵀΔV| <= |V|ᵀ|Δ||V| (rounded up).
+  const bool by_entry = X.entry_remainder.size() == X.centre.size();
+  if (by_entry) spread += (V.cwiseAbs().transpose() * X.entry_remainder * V.cwiseAbs()).unaryExpr([&](double x) {
+      return up(x * (1.0 + gamma(2 * n)));
+    });
   const Eigen::MatrixXd magnitude = T.cwiseAbs() + spread;  // |T_ij(ε)| <= magnitude(i, j)
   const Interval a = Interval(T(0, 0)) - Interval(spread(0, 0));
   Interval b2(0.0), c(kInfinity);
@@ -188,7 +196,7 @@ double smallest_eigenvalue_lower(const AffineMatrix& X) {
   const Interval lambda = (n == 1 ? a : (a + c) / 2.0 - sqrt(boost::numeric::square((c - a) / 2.0) + b2)) - Interval(rho);
   const double scale = lambda.lower() >= 0.0 ? (Interval(1.0) / (Interval(1.0) + Interval(delta))).lower()
                                              : (Interval(1.0) / (Interval(1.0) - Interval(delta))).upper();
-  return (Interval(lambda.lower()) * Interval(scale) - Interval(X.remainder)).lower();
+  return (Interval(lambda.lower()) * Interval(scale) - Interval(by_entry ? 0.0 : X.remainder)).lower();
 }
 
 std::vector<Affine> product(const std::vector<Affine>& A, const std::vector<Affine>& B, int rows, int inner, int cols) {

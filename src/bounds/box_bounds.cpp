@@ -196,6 +196,7 @@ LipschitzTerms lipschitz_terms(const Model& model, const BoxDynamics& d, const A
   const auto with_tail = [&](const std::vector<Affine>& Y) {
     AffineMatrix X = affine_matrix(product(inverse_M.entries, Y, d.n, d.n, d.n).data(), d.n, d.n, d.m);
     X.remainder = (Interval(X.remainder) + Interval(inverse_M.tail) * Interval(frobenius_upper(Y))).upper();
+    X.entry_remainder.resize(0, 0);  // the tail is known as a norm only
     return X;
   };
   for (int j = 0; j < d.n; ++j) t.A.push_back(with_tail(unit_jacobian(d, j)));

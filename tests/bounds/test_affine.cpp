@@ -1,6 +1,7 @@
 // Affine forms (numerics/affine.hpp) and the dynamics evaluated on them over boxes of configurations (the
 // certified bounds' enclosures): they contain the double values at random points of random boxes, and their
 // excess, the remainder, shrinks as the square of the box's width.
+#include "obsgain/bounds/affine_matrix.hpp"
 #include "obsgain/bounds/box_bounds.hpp"
 #include "obsgain/bounds/bounds.hpp"
 #include "obsgain/bounds/joint_search.hpp"
@@ -47,6 +48,26 @@ TEST(AffineForms, EncloseCosineSineAndProductsAtRandomPoints) {
       EXPECT_TRUE(encloses(q, e, std::cos(xv) * std::sin(yv), 1e-15));
     }
   }
+}
+
+// λmin of an affine matrix sees where the remainder sits: a remainder of 5 on the large diagonal entry of
+// diag(10, 1) leaves λmin = 1 (a norm-only remainder would give 1 - 5), and the bound holds for every member.
+TEST(AffineMatrices, SmallestEigenvalueUsesTheRemainderEntryByEntry) {
+  obsgain::AffineMatrix X;
+  X.centre = Eigen::Vector2d(10.0, 1.0).asDiagonal();
+  X.slopes.push_back((Eigen::Matrix2d() << 0.0, 0.01, 0.01, 0.0).finished());
+  X.entry_remainder = (Eigen::Matrix2d() << 5.0, 0.0, 0.0, 0.0).finished();
+  X.remainder = 5.0;
+  const double lower = obsgain::smallest_eigenvalue_lower(X);
+  EXPECT_GT(lower, 0.99);
+  std::mt19937_64 rng(9);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  for (int i = 0; i < 1000; ++i) {
+    const Eigen::Matrix2d member = X.centre + unit(rng) * X.slopes[0] + (Eigen::Matrix2d() << 5.0 * unit(rng), 0, 0, 0).finished();
+    EXPECT_LE(lower, Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(member).eigenvalues()(0));
+  }
+  X.entry_remainder.resize(0, 0);  // known as a norm only
+  EXPECT_LT(obsgain::smallest_eigenvalue_lower(X), -3.9);
 }
 
 // M and the Christoffel tensors of a model over a box of its searched joints (symbol k: side k).

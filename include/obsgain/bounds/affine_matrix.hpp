@@ -16,6 +16,9 @@ struct AffineMatrix {
   Eigen::MatrixXd centre;
   std::vector<Eigen::MatrixXd> slopes;  // G_k, one per noise symbol in use
   double remainder = 0.0;               // ||Δ||₂ <= remainder
+  // |Δ_ij| <= entry_remainder(i, j) where known (from forms entry by entry; empty after combinations): λmin then
+  // sees which entries the remainder sits in, not only its norm.
+  Eigen::MatrixXd entry_remainder;
 
   int symbols() const { return static_cast<int>(slopes.size()); }
   // An upper bound of ||X(ε)||_F over the box (cheap, first order): ||C||_F + Σ ||G_k||_F + remainder.
