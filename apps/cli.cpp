@@ -92,10 +92,15 @@ void add_certificate_options(CLI::App& app, DesignArguments& a) {
       ->type_name("joint|paper");
   app.add_option("--L", a.L, "override the Lipschitz constant (e.g. the paper's 54.01)")
       ->type_name("NUMBER");
-  app.add_option("--certificate", a.certificate, "tight (bounded-real lemma) or paper (Theorem 1)")
-      ->check(CLI::IsMember({"tight", "paper"}))
+  app.add_option("--certificate", a.certificate,
+                 "tight (bounded-real lemma), paper (Theorem 1) or polytopic (one full P over a proven polytope of "
+                 "the perturbation, SDP; falls back to tight when its check fails)")
+      ->check(CLI::IsMember({"tight", "paper", "polytopic"}))
       ->capture_default_str()
-      ->type_name("tight|paper");
+      ->type_name("tight|paper|polytopic");
+  app.add_option("--polytope-cells", a.polytope_cells,
+                 "polytopic certificate: cells covering the joint domain (default 32; more: tighter and slower)")
+      ->type_name("N");
   app.add_option("--bounds", a.bounds, "certified (interval branch and bound) or numeric (optimisers only)")
       ->check(CLI::IsMember({"certified", "numeric"}))
       ->capture_default_str()
@@ -229,7 +234,10 @@ DesignRequest to_design_request(const DesignArguments& a, const Model& model) {
     };
   if (!a.quiet && isatty(STDERR_FILENO) != 0) o.certified_bounds.progress = print_search_progress;
   o.lipschitz = a.lipschitz == "paper" ? LipschitzKind::paper : LipschitzKind::joint;
-  o.certificate = a.certificate == "paper" ? CertificateKind::paper : CertificateKind::tight;
+  o.certificate = a.certificate == "paper"       ? CertificateKind::paper
+                  : a.certificate == "polytopic" ? CertificateKind::polytopic
+                                                 : CertificateKind::tight;
+  if (a.polytope_cells) o.polytope.cells = *a.polytope_cells;
   o.bound_method = a.bounds == "numeric" ? BoundMethod::numeric : BoundMethod::certified;
   if (!a.L.empty()) o.L_override = parse_number("L", a.L);
   if (!a.rate_margin.empty()) o.rate_margin = parse_number("rate-margin", a.rate_margin);

@@ -22,6 +22,7 @@ struct DesignArguments {
   std::string threads = "0";
   std::string lipschitz = "joint";
   std::string certificate = "tight";
+  std::optional<int> polytope_cells;
   std::string bounds = "certified";
   bool optimize_shape = false;
   bool quiet = false;

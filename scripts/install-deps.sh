@@ -10,7 +10,7 @@ packages=(
   libeigen3-dev libnlopt-cxx-dev coinor-libipopt-dev libboost-dev
   libcli11-dev nlohmann-json3-dev libfmt-dev libgtest-dev libbenchmark-dev
   liborocos-kdl-dev libkdl-parser-dev liburdfdom-dev libtinyxml2-dev libconsole-bridge-dev
-  gnuplot-nox
+  gnuplot-nox libdsdp-dev
 )
 for option in "$@"; do
   case "$option" in

@@ -276,3 +276,38 @@ BoxBound BoxBounds::joint_lipschitz(const std::vector<Interval>& box, double low
 }
 
 }  // namespace obsgain
+
+namespace obsgain {
+
+namespace {
+
+// |X(ε) - C| <= Σ_k |G_k| + Δ entrywise over the box, rounded up (sums of non-negative terms under upward rounding).
+Eigen::MatrixXd entrywise_spread(const AffineMatrix& X) {
+  const UpwardRounding upward;
+  Eigen::MatrixXd spread = X.entry_remainder.size() > 0
+                               ? X.entry_remainder
+                               : Eigen::MatrixXd::Constant(X.centre.rows(), X.centre.cols(), X.remainder);
+  for (const Eigen::MatrixXd& G : X.slopes) spread += G.cwiseAbs();
+  return spread;
+}
+
+}  // namespace
+
+PolytopeCell BoxBounds::perturbation_cell(const std::vector<Interval>& box) const {
+  const BoxDynamics d = box_dynamics(model_, search_, box, true);
+  const AffineInverse inverse_M = inverse(d.M, d.n);
+  PolytopeCell cell;
+  cell.box = box;
+  if (!inverse_M.proven) return cell;
+  const LipschitzTerms t = lipschitz_terms(model_, d, inverse_M);
+  cell.constant = -t.R.centre;
+  for (const AffineMatrix& A : t.A) cell.slopes.push_back(-A.centre);
+  const UpwardRounding upward;
+  cell.radius = entrywise_spread(t.R);
+  for (int j = 0; j < d.n; ++j) cell.radius += velocity_bounds_(j) * entrywise_spread(t.A[j]);
+  cell.radius += point_rounding(cell, velocity_bounds_);
+  cell.proven = true;
+  return cell;
+}
+
+}  // namespace obsgain

@@ -275,7 +275,8 @@ DeployedDesign deploy(const Model& model, const BoundReport& bounds, const Desig
   DeployedDesign result{base, Deployment{}};
   Deployment& dep = *result.deployment;
   dep.objective = deployment.objective;
-  dep.tradeoff = search.sweep(base.alpha);
+  // The polytopic certificate's sweep would be a search of SDPs per point: its deployment is the design's own.
+  if (base.certificate != CertificateKind::polytopic) dep.tradeoff = search.sweep(base.alpha);
   if (deployment.objective == DesignObjective::velocity_error && base.selected().observer.certified) {
     TradeoffPoint best = least_velocity_error(search, base, options.optimize_shape, dep.tradeoff);
     if (best.observer.alpha != base.alpha) {  // the sweep follows the chosen shape, and may hold a better point
@@ -330,6 +331,9 @@ DeployedDesign design_observer(const Model& model, const DesignOptions& options,
     throw InputError("--sample-period: the sampled certificate needs C_q on intervals, but " + why);
   if (deployment.objective == DesignObjective::velocity_error && !options.gamma)
     throw InputError("--objective velocity-error needs --gamma: the rate the design must still certify");
+  if (deployment.objective == DesignObjective::velocity_error && options.certificate == CertificateKind::polytopic)
+    throw InputError("--objective velocity-error needs --certificate tight or paper: with the polytopic certificate "
+                     "every gain it tries would be a search of SDPs (docs/theory.md)");
   const auto start = std::chrono::steady_clock::now();
   const Eigen::VectorXd V = requested_velocity_bounds(model, options);
   std::vector<std::string> warnings;

@@ -9,10 +9,13 @@
 
 #include <chrono>
 #include <cmath>
+#include <limits>
 
 namespace obsgain {
 
 namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 // The admissible ranges: wide enough for any robot and observer that can be built, narrow enough that the
 // certificates' arithmetic (θ², L θ, bisections over θ) stays finite and terminates.
@@ -87,6 +90,59 @@ CertificateSummary tight_summary(const Design& d, std::optional<double> target, 
   return s;
 }
 
+// The polytopic certificate at the target's smallest θ, or at the given θ for its largest rate (bisections on the SDP
+// solver's answer); then the interval check of the P found.
+CertificateSummary polytopic_summary(const Design& d, const PerturbationPolytope& polytope, const DesignOptions& options) {
+  PolytopicOptions po = options.polytopic;
+  po.rate_margin = d.rate_margin;
+  CertificateSummary s;
+  const std::optional<double> target = options.gamma;
+  s.theta_star = target ? polytopic_theta_star(polytope, d.alpha, d.beta, *target, po) : kNaN;
+  s.observer = observer_at(d, CertificateKind::polytopic, target ? s.theta_star : *options.theta);
+  CertifiedObserver& o = s.observer;
+  if (!std::isfinite(o.theta)) {
+    s.status = "the SDP solver found no P at any gain up to 1e8";
+    return s;
+  }
+  s.rate = target ? *target : polytopic_rate(polytope, o.k1, o.k2, po);
+  o.gamma = target ? *target : s.rate * (1.0 - d.rate_margin);
+  const PolytopicCertificate cert = polytopic_certificate(polytope, o.k1, o.k2, o.gamma, po);
+  s.status = cert.status;
+  if (cert.exists) {
+    o.P = cert.P;
+    o.k = cert.k;
+  }
+  o.certified = cert.exists && o.gamma > 0.0;
+  return s;
+}
+
+// --certificate polytopic: the polytope, the certificate, and the fall-back to the tight one when either fails.
+void certify_polytopic(Design& d, const Model& model, const DesignOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  PolytopeSummary summary;
+  const std::string unavailable = certification_unavailable(model);
+  PerturbationPolytope polytope;
+  if (unavailable.empty()) {
+    PolytopeOptions po = options.polytope;
+    po.threads = options.certified_bounds.threads;
+    polytope = perturbation_polytope(model, d.velocity_bounds, po);
+    summary.unproven = polytope.unproven;
+  } else {
+    summary.unproven = unavailable;
+  }
+  summary.cells = static_cast<int>(polytope.cells.size());
+  summary.vertices = polytope.vertex_count();
+  summary.grid = polytope.grid;
+  if (polytope.proven()) d.polytopic = polytopic_summary(d, polytope, options);
+  summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  d.polytope = summary;
+  if (!d.polytopic || !d.polytopic->observer.certified) {
+    d.warnings.push_back(fmt::format("the polytopic certificate failed ({}): the tight certificate is used",
+                                     d.polytopic ? d.polytopic->status : "no proven polytope: " + summary.unproven));
+    d.certificate = CertificateKind::tight;
+  }
+}
+
 }  // namespace
 
 const char* to_string(LipschitzKind kind) { return kind == LipschitzKind::paper ? "paper" : "joint"; }
@@ -104,6 +160,8 @@ void validate_design_options(const DesignOptions& options) {
   const double budget = options.certified_bounds.budget_seconds;
   if (!std::isfinite(budget) || budget < 0.0 || budget > 1e6)
     throw InputError(fmt::format("--bound-budget = {} must lie in [0, 1e6] seconds (0: until the gap is reached)", budget));
+  if (options.polytope.cells < 1 || options.polytope.cells > 4096)
+    throw InputError(fmt::format("--polytope-cells = {} must lie in [1, 4096]", options.polytope.cells));
   if (!std::isfinite(options.rate_margin) || options.rate_margin <= 0.0 || options.rate_margin >= 0.5)
     throw InputError(fmt::format("rate margin = {} must lie in (0, 0.5)", options.rate_margin));
 }
@@ -140,7 +198,7 @@ void choose_shape(Design& d, const DesignOptions& options) {
   d.beta = options.beta;
   if (!options.optimize_shape) return;
   d.beta = 1.0;
-  if (options.certificate == CertificateKind::paper) {
+  if (options.certificate == CertificateKind::paper) {  // polytopic: the tight certificate's α (design.hpp)
     d.shape = optimize_alpha("S_norm", [](double a) { return observer_lyapunov(a, 1.0, 1).S_norm; });
   } else if (options.gamma) {
     d.shape = optimize_alpha("theta_star", [&](double a) { return tight_theta_star(a, 1.0, *options.gamma, d.L_used); });
@@ -161,6 +219,7 @@ void certify(Design& d, const Model& model, const BoundReport& bounds, const Des
   d.lyapunov = observer_lyapunov(d.alpha, d.beta, d.dof);
   d.paper = paper_summary(d, options.gamma, options.theta);
   d.tight = tight_summary(d, options.gamma, options.theta);
+  if (options.certificate == CertificateKind::polytopic) certify_polytopic(d, model, options);
   // Both certificates use L alone: proven bounds, or the user's own L, make the certificate a proof.
   if (!bounds.certified && !options.L_override) {
     d.not_proven_reason = options.bound_method == BoundMethod::numeric

@@ -32,3 +32,32 @@ double spectral_norm_upper(const Eigen::MatrixXd& B) {
 }
 
 }  // namespace obsgain
+
+namespace obsgain {
+
+bool positive_definite_proven(const IntervalMatrix& X) {
+  const Eigen::Index n = X.rows();
+  // D X D with D_ii = 2^-e_i, X_ii ~ 4^e_i: a congruence, so definiteness is unchanged, and exact in binary.
+  Eigen::VectorXd scale(n);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    if (!(X(i, i).lower() > 0.0)) return false;
+    int exponent = 0;
+    std::frexp(X(i, i).upper(), &exponent);
+    scale(i) = std::ldexp(1.0, -exponent / 2);
+  }
+  IntervalMatrix L = IntervalMatrix::Zero(n, n);
+  for (Eigen::Index j = 0; j < n; ++j) {
+    Interval pivot = X(j, j) * Interval(scale(j) * scale(j));
+    for (Eigen::Index k = 0; k < j; ++k) pivot -= square(L(j, k));
+    if (!(pivot.lower() > 0.0)) return false;
+    L(j, j) = sqrt(pivot);
+    for (Eigen::Index i = j + 1; i < n; ++i) {
+      Interval entry = X(i, j) * Interval(scale(i) * scale(j));
+      for (Eigen::Index k = 0; k < j; ++k) entry -= L(i, k) * L(j, k);
+      L(i, j) = entry / L(j, j);
+    }
+  }
+  return true;
+}
+
+}  // namespace obsgain

@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -67,8 +68,10 @@ void write_data(const VerificationReport& r, const fs::path& dir) {
   write_file(dir / "monte_carlo_errors.csv", errors.str());
 
   std::ostringstream rates;
-  rates << "theta,paper_gamma,tight_gamma\n";
-  for (const auto& p : r.rate_curve) rates << fmt::format("{:.9g},{:.12g},{:.12g}\n", p.theta, p.paper_gamma, p.tight_gamma);
+  rates << "theta,paper_gamma,tight_gamma,polytopic_gamma\n";
+  for (const auto& p : r.rate_curve)
+    rates << fmt::format("{:.9g},{:.12g},{:.12g},{}\n", p.theta, p.paper_gamma, p.tight_gamma,
+                         std::isnan(p.polytopic_gamma) ? std::string("NaN") : fmt::format("{:.12g}", p.polytopic_gamma));
   write_file(dir / "rate_vs_theta.csv", rates.str());
 
   if (r.design.deployment) {
@@ -159,15 +162,20 @@ Plot error_traces_plot(const VerificationReport& r) {
 }
 
 Plot rate_plot(const VerificationReport& r) {
-  return {"rate_vs_theta", "Certified rate against the gain, both certificates",
+  const bool polytopic = r.design.design.certificate == CertificateKind::polytopic;
+  return {"rate_vs_theta", polytopic ? "Certified rate against the gain: paper, tight, and the polytopic certificate's SDP estimate"
+                                     : "Certified rate against the gain, both certificates",
           std::string(kPlotPreamble) +
               fmt::format("set title \"dotted: the design's theta = {0:.6g}\"\nset xlabel 'theta [1/s]'\n"
                           "set ylabel 'certified gamma [1/s]'\n"
                           "set arrow from {0:.9g}, graph 0 to {0:.9g}, graph 1 nohead dt 3\n"
                           "plot 'rate_vs_theta.csv' every ::1 using 1:2 with lines lw 2 title 'paper', "
-                          "'rate_vs_theta.csv' every ::1 using 1:3 with lines lw 2 title 'tight', "
+                          "'rate_vs_theta.csv' every ::1 using 1:3 with lines lw 2 title 'tight', {1}"
                           "0 with lines lc rgb 'black' notitle\n",
-                          r.design.design.selected().observer.theta)};
+                          r.design.design.selected().observer.theta,
+                          polytopic ? "'rate_vs_theta.csv' every ::1 using 1:4 with points pt 7 ps 1.5 "
+                                      "title 'polytopic (SDP estimate)', "
+                                    : "")};
 }
 
 Plot tradeoff_plot(const VerificationReport& r) {
@@ -323,8 +331,14 @@ std::string certificate_section(const VerificationReport& r) {
     << number(d.lyapunov.S2(0, 1)) << "], [" << number(d.lyapunov.S2(1, 0)) << ", " << number(d.lyapunov.S2(1, 1))
     << "]], ||S|| = " << number(d.lyapunov.S_norm) << ", relative residual " << fmt::format("{:.1e}", d.lyapunov.residual)
     << ".</p>\n";
-  std::string rows = table_row({"", "paper (Theorem 1)", "tight (bounded-real)"}, true);
-  for (const ComparisonRow& row : certificate_comparison(d)) rows += table_row({row.label, number(row.paper), number(row.tight)});
+  std::vector<std::string> header = {"", "paper (Theorem 1)", "tight (bounded-real)"};
+  if (d.polytopic) header.push_back("polytopic (full P, SDP)");
+  std::string rows = table_row(header, true);
+  for (const ComparisonRow& row : certificate_comparison(d)) {
+    std::vector<std::string> cells = {row.label, number(row.paper), number(row.tight)};
+    if (row.polytopic) cells.push_back(number(*row.polytopic));
+    rows += table_row(cells);
+  }
   h << "<h2>4. Certificates side by side</h2>\n" << table(rows) << "<p>Selected: <b>" << to_string(d.certificate) << "</b>. "
     << (!o.certified ? std::string("<span class='bad'>Not certified.</span>")
                      : fmt::format("{}: ||e(t)|| ≤ {:.6g} ||e(0)|| e<sup>−{:.6g} t</sup>.",

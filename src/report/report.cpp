@@ -65,14 +65,22 @@ std::string format_vector(const Eigen::VectorXd& v) {
 
 std::vector<ComparisonRow> certificate_comparison(const Design& d) {
   const CertifiedObserver &p = d.paper.observer, &t = d.tight.observer;
-  return {{d.target_gamma ? "theta* (smallest gain for the target)" : "theta* (any positive rate)", d.paper.theta_star,
-           d.tight.theta_star},
-          {"theta (chosen)", p.theta, t.theta},
-          {"gamma certified at theta", d.paper.rate, d.tight.rate},
-          {"envelope rate", p.gamma, t.gamma},
-          {"k (envelope constant)", p.k, t.k},
-          {"k1 = theta alpha", p.k1, t.k1},
-          {"k2 = theta^2 beta", p.k2, t.k2}};
+  std::vector<ComparisonRow> rows = {
+      {d.target_gamma ? "theta* (smallest gain for the target)" : "theta* (any positive rate)", d.paper.theta_star,
+       d.tight.theta_star},
+      {"theta (chosen)", p.theta, t.theta},
+      {"gamma certified at theta", d.paper.rate, d.tight.rate},
+      {"envelope rate", p.gamma, t.gamma},
+      {"k (envelope constant)", p.k, t.k},
+      {"k1 = theta alpha", p.k1, t.k1},
+      {"k2 = theta^2 beta", p.k2, t.k2}};
+  if (d.polytopic) {
+    const CertificateSummary& s = *d.polytopic;
+    const std::vector<double> values = {s.theta_star, s.observer.theta, s.rate, s.observer.gamma, s.observer.k,
+                                        s.observer.k1, s.observer.k2};
+    for (std::size_t i = 0; i < rows.size(); ++i) rows[i].polytopic = values[i];
+  }
+  return rows;
 }
 
 nlohmann::json to_json(const Eigen::MatrixXd& matrix) {
@@ -119,6 +127,7 @@ nlohmann::json to_json(const CertificateSummary& s) {
           {"k2", o.k2},
           {"P", to_json(o.P)},
           {"lmi_max_eig", s.lmi_max_eig ? nlohmann::json(*s.lmi_max_eig) : nlohmann::json(nullptr)},
+          {"status", s.status},
           {"certified", o.certified}};
 }
 
@@ -193,6 +202,11 @@ nlohmann::json to_json(const Design& d) {
   else if (!d.proven())
     j["certified_reason"] = d.not_proven_reason;
   if (d.bounds.certified) j["bounds"]["brackets"] = certified_json(d.bounds);
+  if (d.polytopic) j["comparison"]["polytopic"] = to_json(*d.polytopic);
+  if (d.polytope)
+    j["polytope"] = {{"cells", d.polytope->cells},       {"vertices", d.polytope->vertices},
+                     {"grid", d.polytope->grid},         {"unproven", d.polytope->unproven},
+                     {"seconds", d.polytope->seconds}};
   j["notes"] = d.notes;
   j["robot"]["armature"] = to_json(d.armature);
   j["robot"]["fingerprint"] = d.robot_fingerprint;
@@ -278,10 +292,18 @@ std::string format_certificates(const Design& d) {
                        d.shape.objective, d.alpha, d.shape.alpha_global, d.shape.alpha_polish);
   out << fmt::format("\nCertificates{}\n", d.target_gamma ? fmt::format(" for target gamma = {:.6g}", *d.target_gamma)
                                                              : fmt::format(" at theta = {:.6g}", d.paper.observer.theta));
-  out << fmt::format("  {:<38} {:>14} {:>16}\n", "", "paper", "tight");
+  out << fmt::format("  {:<38} {:>14} {:>16}{}\n", "", "paper", "tight", d.polytopic ? fmt::format(" {:>16}", "polytopic") : "");
   for (const ComparisonRow& row : certificate_comparison(d))
-    out << fmt::format("  {:<38} {:>14.6g} {:>16.6g}\n", row.label, row.paper, row.tight);
+    out << fmt::format("  {:<38} {:>14.6g} {:>16.6g}{}\n", row.label, row.paper, row.tight,
+                       !row.polytopic              ? std::string()
+                       : std::isnan(*row.polytopic) ? fmt::format(" {:>16}", "(not searched)")
+                                                    : fmt::format(" {:>16.6g}", *row.polytopic));
   if (d.tight.lmi_max_eig) out << fmt::format("  {:<38} {:>14} {:>16.3e}\n", "LMI largest eigenvalue", "", *d.tight.lmi_max_eig);
+  if (d.polytope)
+    out << fmt::format("  polytope: {} cells ({} per searched joint), {} vertices{}; {:.1f} s\n", d.polytope->cells,
+                       d.polytope->grid, d.polytope->vertices,
+                       d.polytope->unproven.empty() ? "" : " — not proven: " + d.polytope->unproven, d.polytope->seconds);
+  if (d.polytopic) out << "  polytopic: " << d.polytopic->status << "\n";
   return out.str();
 }
 

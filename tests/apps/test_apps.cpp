@@ -398,6 +398,48 @@ TEST(DeploymentApps, RefusesIncompleteOrBadDeployments) {
   expect_refused("--gamma 1.27 --sample-period 0.001 --encoder-counts 4096 --acceleration-bounds -5", "A1 = -5");
   expect_refused("--design " + write_temp_file("empty_design.json", "{}") + " --sample-period 0.001",
                  "--sample-period cannot be given with it", "monte-carlo");
+  expect_refused("--gamma 1.27 --certificate polytopic --sample-period 0.001 --encoder-counts 4096 "
+                 "--acceleration-bounds 200 --objective velocity-error", "needs --certificate tight or paper");
+  expect_refused("--gamma 1.27 --certificate polytopic --polytope-cells 0", "--polytope-cells = 0");
+}
+
+// The polytopic certificate as a user asks for it: one full P, proven, then validated by simulation with that P.
+TEST(PolytopicApps, PendubotDesignIsProvenAndPassesMonteCarlo) {
+  const std::string design = ::testing::TempDir() + "/obsgain_polytopic_design.json";
+  const AppRun d = run("design-gains", "--gamma 1.27 --certificate polytopic --json " + design);
+  ASSERT_EQ(d.exit_code, 0) << d.err;
+  const nlohmann::json j = read_json(design);
+  EXPECT_EQ(j["certificate"], "polytopic");
+  EXPECT_EQ(j["design"]["certificate"], "polytopic");
+  EXPECT_TRUE(j["certified"].get<bool>());
+  // Half the tight certificate's gain (65.65) for the same rate (docs/theory.md).
+  const double theta = j["design"]["theta"].get<double>();
+  EXPECT_LT(theta, 35.0);
+  EXPECT_GT(theta, 19.4);  // the ceiling of any quadratic certificate (the worst frozen Φ)
+  EXPECT_GT(j["comparison"]["tight"]["theta"].get<double>(), 65.0);
+  const auto P = j["design"]["P"].get<std::vector<std::vector<double>>>();
+  ASSERT_EQ(P.size(), 4u);
+  EXPECT_NE(P[0][0], P[1][1]);  // a full P, not P₂ ⊗ I
+  EXPECT_EQ(j["polytope"]["cells"], 32);
+  const AppRun mc = run("monte-carlo", "--design " + design + " --trials 100 --seed 5 --json");
+  ASSERT_EQ(mc.exit_code, 0) << mc.err;
+  const nlohmann::json report = nlohmann::json::parse(mc.out);
+  EXPECT_EQ(report["envelope_violations"], 0);
+  EXPECT_EQ(report["lyapunov_violations"], 0);
+  EXPECT_EQ(report["passed"], 100);
+}
+
+// Where the polytope cannot be proven (too few cells for M to be proven invertible), the tight certificate is used
+// and the warning says why.
+TEST(PolytopicApps, FallsBackToTheTightCertificateAndSaysWhy) {
+  const AppRun r = run("design-gains", "--robot " + std::string(OBSGAIN_EXAMPLES_DIR) +
+                                           "/arm3.urdf --gamma 5 --certificate polytopic --polytope-cells 4 --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["certificate"], "tight");
+  EXPECT_TRUE(j["certified"].get<bool>());
+  const std::string warnings = j["warnings"].dump();
+  EXPECT_NE(warnings.find("the polytopic certificate failed (no proven polytope"), std::string::npos) << warnings;
 }
 
 }  // namespace

@@ -6,6 +6,7 @@
 
 #include "obsgain/bounds/branch_and_bound.hpp"
 #include "obsgain/bounds/joint_search.hpp"
+#include "obsgain/bounds/perturbation_polytope.hpp"
 #include "obsgain/model/model.hpp"
 
 #include <Eigen/Dense>
@@ -34,6 +35,8 @@ class BoxBounds {
   BoxBound inverse_inertia(const std::vector<Interval>& box) const;
   BoxBound jacobian(const std::vector<Interval>& box, double lower) const;
   BoxBound joint_lipschitz(const std::vector<Interval>& box, double lower) const;
+  // Φ over the box as a polytope cell (perturbation_polytope.hpp), without its vertices.
+  PolytopeCell perturbation_cell(const std::vector<Interval>& box) const;
 
  private:
   const Model& model_;

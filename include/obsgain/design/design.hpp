@@ -4,6 +4,8 @@
 
 #include "obsgain/bounds/bounds.hpp"
 #include "obsgain/bounds/certified_bounds.hpp"
+#include "obsgain/bounds/perturbation_polytope.hpp"
+#include "obsgain/certificate/polytopic.hpp"
 #include "obsgain/certificate/lyapunov.hpp"
 #include "obsgain/model/model.hpp"
 #include "obsgain/runtime/certified_observer.hpp"
@@ -36,6 +38,10 @@ struct DesignOptions {
   BoundMethod bound_method = BoundMethod::certified;
   BoundOptions bounds;
   CertifiedOptions certified_bounds;
+  // --certificate polytopic: the cells of the perturbation's polytope and the SDP's policy. Its shape (with
+  // --optimize-shape) is the tight certificate's best α: every α would cost a search of SDPs.
+  PolytopeOptions polytope;
+  PolytopicOptions polytopic;
   // Told the start of each phase (bounds, certified bounds, ...); the apps print it on stderr for robots of more
   // than two joints, unless --quiet.
   std::function<void(const std::string&)> progress;
@@ -47,6 +53,14 @@ struct CertificateSummary {
   double theta_star = 0.0;     // smallest θ for the target γ (for a θ evaluation: for any positive rate)
   double rate = 0.0;           // the rate certified at θ (a supremum for tight; may be <= 0)
   std::optional<double> lmi_max_eig;  // tight only: the LMI check, <= 0 certifies
+  std::string status;                 // polytopic only: the SDP solver's and the interval check's verdict
+};
+
+// The polytope a polytopic certificate rests on (bounds/perturbation_polytope.hpp).
+struct PolytopeSummary {
+  int cells = 0, vertices = 0, grid = 0;
+  std::string unproven;  // why it could not be built, or empty
+  double seconds = 0.0;  // polytope and SDPs
 };
 
 struct ShapeReport {
@@ -74,6 +88,8 @@ struct Design {
   std::optional<double> target_gamma;
   double rate_margin = 0.0;
   CertificateSummary paper, tight;
+  std::optional<CertificateSummary> polytopic;  // --certificate polytopic: its result, even when it fell back
+  std::optional<PolytopeSummary> polytope;
   std::vector<std::string> notes;     // what loading the model decided (chain, lumped bodies, armature)
   std::vector<std::string> warnings;
   // The certificate is a proof only if every bound it uses is proven: certified bounds, or an L given by the
@@ -86,7 +102,10 @@ struct Design {
 
   bool proven() const { return not_proven_reason.empty(); }
 
-  const CertificateSummary& selected() const { return certificate == CertificateKind::paper ? paper : tight; }
+  const CertificateSummary& selected() const {
+    if (certificate == CertificateKind::polytopic && polytopic) return *polytopic;
+    return certificate == CertificateKind::paper ? paper : tight;
+  }
 };
 
 // Throws InputError for invalid options (non-positive or NaN numbers, both or neither of γ and θ, ...).

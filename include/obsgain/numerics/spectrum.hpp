@@ -3,6 +3,8 @@
 // S, far below the relative pad kEigenPad for the sizes obsgain handles (n <= 32; docs/theory.md, "The constants").
 #pragma once
 
+#include "obsgain/numerics/interval.hpp"
+
 #include <Eigen/Dense>
 
 namespace obsgain {
@@ -13,5 +15,11 @@ double largest_eigenvalue_upper(const Eigen::MatrixXd& S);
 double smallest_eigenvalue_lower(const Eigen::MatrixXd& S);
 // ||B||₂, from the symmetric dilation [[0, B], [Bᵀ, 0]].
 double spectral_norm_upper(const Eigen::MatrixXd& B);
+
+using IntervalMatrix = Eigen::Matrix<Interval, Eigen::Dynamic, Eigen::Dynamic>;
+// True only if every symmetric matrix inside X is positive definite: a Cholesky factorisation in interval arithmetic
+// (outward rounding) whose pivots stay positive, after a diagonal scaling by powers of two (exact). X is read as
+// symmetric from its lower triangle.
+bool positive_definite_proven(const IntervalMatrix& X);
 
 }  // namespace obsgain

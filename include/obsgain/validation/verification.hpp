@@ -30,6 +30,7 @@ struct BoundCurvePoint {
 
 struct RateCurvePoint {
   double theta, paper_gamma, tight_gamma;
+  double polytopic_gamma;  // the SDP's rate (an estimate) where the design is polytopic, on a coarser grid; else NaN
 };
 
 struct VerificationReport {

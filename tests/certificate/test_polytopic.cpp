@@ -1,0 +1,91 @@
+#include "obsgain/certificate/certificate.hpp"
+#include "obsgain/certificate/polytopic.hpp"
+#include "obsgain/numerics/spectrum.hpp"
+#include "obsgain/model/model.hpp"
+
+#include <gtest/gtest.h>
+
+namespace {
+
+// A one-joint polytope: Φ = centre + δ, |δ| <= radius, in one cell with one vertex.
+obsgain::PerturbationPolytope scalar_polytope(double centre, double radius) {
+  obsgain::PerturbationPolytope polytope;
+  polytope.dof = 1;
+  polytope.grid = 1;
+  obsgain::PolytopeCell cell;
+  cell.constant = Eigen::MatrixXd::Constant(1, 1, centre);
+  cell.vertices = {cell.constant};
+  cell.radius = Eigen::MatrixXd::Constant(1, 1, radius);
+  cell.proven = true;
+  polytope.cells = {cell};
+  return polytope;
+}
+
+// Φ = 0 exactly: the error dynamics are linear, s² + θ s + θ² for α = β = 1, and the best quadratic rate is the
+// spectral abscissa θ / 2 (a supremum).
+TEST(PolytopicCertificate, LinearErrorDynamicsReachTheSpectralAbscissa) {
+  const double theta = 40.0;
+  const double rate = obsgain::polytopic_rate(scalar_polytope(0.0, 0.0), theta, theta * theta);
+  EXPECT_LT(rate, theta / 2);
+  EXPECT_GT(rate, 0.99 * theta / 2);
+}
+
+// One scalar uncertainty |Φ| <= L: the S-procedure is lossless, so the SDP's rate is the bounded-real lemma's,
+// computed independently in closed form (certificate.hpp).
+TEST(PolytopicCertificate, ScalarUncertaintyEqualsTheBoundedRealLemma) {
+  for (const double theta : {65.67, 100.0, 150.0}) {
+    const double L = 43.3474784;
+    const double sdp = obsgain::polytopic_rate(scalar_polytope(0.0, L), theta, theta * theta);
+    const double closed_form = obsgain::tight_rate(theta, theta * theta, L);
+    EXPECT_NEAR(sdp, closed_form, 2e-3 * closed_form) << "theta = " << theta;
+  }
+}
+
+// Certify, then check: the proof accepts the solver's P and rejects it where it cannot hold.
+TEST(PolytopicCertificate, IntervalCheckAcceptsTheCertificateAndRejectsPerturbations) {
+  const obsgain::PerturbationPolytope polytope = scalar_polytope(-5.0, 20.0);
+  const double k1 = 50.0, k2 = 2500.0, gamma = 10.0;
+  const obsgain::PolytopicCertificate cert = obsgain::polytopic_certificate(polytope, k1, k2, gamma);
+  ASSERT_TRUE(cert.exists) << cert.status;
+  EXPECT_TRUE(obsgain::polytopic_check(polytope, k1, k2, gamma, cert.P, cert.multipliers));
+  // The same P at a rate no quadratic certificate reaches for this uncertainty.
+  const double ceiling = obsgain::polytopic_rate(polytope, k1, k2);
+  EXPECT_FALSE(obsgain::polytopic_check(polytope, k1, k2, 1.05 * ceiling, cert.P, cert.multipliers));
+  // The coupling between position and velocity errors flipped: V is still positive, the LMI fails.
+  Eigen::MatrixXd flipped = cert.P;
+  flipped(0, 1) = flipped(1, 0) = -cert.P(0, 1);
+  EXPECT_FALSE(obsgain::polytopic_check(polytope, k1, k2, gamma, flipped, cert.multipliers));
+  // A wider polytope than the one certified.
+  EXPECT_FALSE(obsgain::polytopic_check(scalar_polytope(-5.0, 60.0), k1, k2, gamma, cert.P, cert.multipliers));
+  // k is the envelope constant of the P returned, from proven eigenvalue bounds.
+  const double k = std::sqrt(obsgain::largest_eigenvalue_upper(cert.P) / obsgain::smallest_eigenvalue_lower(cert.P));
+  EXPECT_NEAR(cert.k, k, 1e-9 * k);
+}
+
+// The targets on the Pendubot (docs/theory.md, "The polytopic certificate"): at the tight certificate's
+// design gain θ = 65.67 the norm bound proves 1.28 1/s; over the proven polytope one full P proves 15.
+TEST(PolytopicCertificate, PendubotProvesFifteenAtTheTightDesignGain) {
+  const obsgain::Model model = obsgain::pendubot();
+  const obsgain::PerturbationPolytope polytope = obsgain::perturbation_polytope(model, model.velocity_bounds);
+  const double theta = 65.67;
+  const obsgain::PolytopicCertificate cert = obsgain::polytopic_certificate(polytope, theta, theta * theta, 15.0);
+  ASSERT_TRUE(cert.exists) << cert.status;
+  EXPECT_GT(cert.k, 1.0);
+  // The worst frozen Φ caps any quadratic certificate at 24.4: past it the check must fail.
+  EXPECT_FALSE(obsgain::polytopic_check(polytope, theta, theta * theta, 24.5, cert.P, cert.multipliers));
+}
+
+TEST(IntervalCholesky, ProvesDefinitenessOfEveryMatrixInside) {
+  obsgain::IntervalMatrix X(2, 2);
+  X << obsgain::Interval(1.0), obsgain::Interval(0.9, 0.99), obsgain::Interval(0.9, 0.99), obsgain::Interval(1.0);
+  EXPECT_TRUE(obsgain::positive_definite_proven(X));
+  X(1, 0) = X(0, 1) = obsgain::Interval(0.9, 1.0);  // contains [[1, 1], [1, 1]], singular
+  EXPECT_FALSE(obsgain::positive_definite_proven(X));
+  // Scales far apart (the observer's P spans θ²): the diagonal scaling keeps the check exact.
+  X << obsgain::Interval(1e8), obsgain::Interval(9.9e3), obsgain::Interval(9.9e3), obsgain::Interval(1.0);
+  EXPECT_TRUE(obsgain::positive_definite_proven(X));
+  X(1, 0) = X(0, 1) = obsgain::Interval(1.0001e4);
+  EXPECT_FALSE(obsgain::positive_definite_proven(X));
+}
+
+}  // namespace
