@@ -20,7 +20,6 @@ using Entry = std::pair<int, int>;
 
 constexpr double kNotFound = std::numeric_limits<double>::infinity();
 
-
 // Where each unknown sits in the solver's y: P's lower triangle (balanced coordinates), one multiplier per entry
 // (i, j) that has a radius in some cell (shared by all cells: the solver's work then grows with the vertices,
 // not with the cells; docs/theory.md), then one last scalar (the slack t, or the condition number κ).
@@ -120,22 +119,25 @@ void normalisation(const Layout& l, const Eigen::VectorXd& W, bool upper_by_last
   blocks.push_back(std::move(upper));
 }
 
-// A strictly feasible start: P_x = c I (c = `scale` between 1 and the cap; else 2 and κ above W²'s spread), each
-// τ = c, and the last unknown t large enough (slack) — or, for the κ problem, empty when the vertex LMIs at P_x
-// = c I are not all negative (DSDP then starts infeasible).
-Eigen::VectorXd feasible_start(const Layout& l, const Eigen::VectorXd& W, const std::vector<LinearMatrixInequality>& blocks,
-                               double scale) {
-  const bool slack = scale > 0.0;
-  const double c = slack ? scale : 2.0 / W.minCoeff() / W.minCoeff();
+double largest_eigenvalue(const LinearMatrixInequality& block, const Eigen::VectorXd& y) {
+  return Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(evaluate(block, y), Eigen::EigenvaluesOnly).eigenvalues().maxCoeff();
+}
+
+// P = W P_x W: the weights of the balanced coordinates x = (√k2 e_q, e_v).
+Eigen::VectorXd balancing(const Layout& l, double k2) {
+  Eigen::VectorXd W = Eigen::VectorXd::Ones(l.N);
+  W.head(l.n).setConstant(std::sqrt(k2));
+  return W;
+}
+
+// A strictly feasible start for the slack problem: P_x = c I (c between 1 and the cap), each τ = c, and t above
+// every vertex block's largest eigenvalue there (the last two blocks bound P_x and hold at c).
+Eigen::VectorXd feasible_start(const Layout& l, const std::vector<LinearMatrixInequality>& blocks, double c) {
   Eigen::VectorXd y = Eigen::VectorXd::Zero(l.size());
   for (std::size_t v = 0; v < l.p_entries.size(); ++v) y(v) = l.p_entries[v].first == l.p_entries[v].second ? c : 0.0;
   y.segment(l.tau_offset, l.last - l.tau_offset).setConstant(c);
   double worst = 0.0;
-  for (std::size_t b = 0; b + 2 < blocks.size(); ++b)
-    worst = std::max(worst, Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(evaluate(blocks[b], y), Eigen::EigenvaluesOnly)
-                                .eigenvalues()
-                                .maxCoeff());
-  if (!slack) return Eigen::VectorXd();
+  for (std::size_t b = 0; b + 2 < blocks.size(); ++b) worst = std::max(worst, largest_eigenvalue(blocks[b], y));
   y(l.last) = 2.0 * worst + 1.0;
   return y;
 }
@@ -158,13 +160,12 @@ Solved solve(const PerturbationPolytope& polytope, double k1, double k2, double 
     for (const Eigen::MatrixXd& Phi : polytope.cells[c].vertices)
       blocks.push_back(vertex_lmi(l, static_cast<int>(c), balanced_matrix(k1, scale, Phi), polytope.cells[c].radius,
                                   gamma, slack));
-  Eigen::VectorXd W = Eigen::VectorXd::Ones(l.N);
-  if (!slack) W.head(l.n).setConstant(scale);  // P = W P_x W
-  normalisation(l, W, !slack, options.condition_cap, blocks);
+  // The slack problem bounds P_x itself; the κ problem bounds P in original coordinates.
+  normalisation(l, slack ? Eigen::VectorXd::Ones(l.N) : balancing(l, k2), !slack, options.condition_cap, blocks);
   Eigen::VectorXd objective = Eigen::VectorXd::Zero(l.size());
   objective(l.last) = -1.0;
   SdpOptions sdp = options.sdp;
-  sdp.start = feasible_start(l, W, blocks, slack ? std::sqrt(options.condition_cap) : 0.0);
+  if (slack) sdp.start = feasible_start(l, blocks, std::sqrt(options.condition_cap));
   s.sdp = solve_sdp(l.size(), blocks, objective, sdp);
   return s;
 }
@@ -189,14 +190,10 @@ double polytopic_slack(const PerturbationPolytope& polytope, double k1, double k
   if (!s.sdp.y.allFinite() || !(t < 0.0)) return s.sdp.solved && std::isfinite(t) ? t : kNotFound;
   // The vertex blocks hold LMI - tI: the LMIs themselves must be negative, λmax(LMI - tI) < -t. The last two
   // blocks bound P_x (I <= P_x <= cap I), to the solver's tolerance.
-  const auto largest = [&](const LinearMatrixInequality& block) {
-    return Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(evaluate(block, s.sdp.y), Eigen::EigenvaluesOnly)
-        .eigenvalues()
-        .maxCoeff();
-  };
   const std::size_t vertex_blocks = s.blocks.size() - 2;
   for (std::size_t b = 0; b < s.blocks.size(); ++b)
-    if (b < vertex_blocks ? !(largest(s.blocks[b]) < -t) : largest(s.blocks[b]) > 1e-6 * options.condition_cap)
+    if (const double largest = largest_eigenvalue(s.blocks[b], s.sdp.y);
+        b < vertex_blocks ? !(largest < -t) : largest > 1e-6 * options.condition_cap)
       return kNotFound;
   return t;
 }
@@ -252,8 +249,7 @@ PolytopicCertificate polytopic_certificate(const PerturbationPolytope& polytope,
     cert.status = fmt::format("the SDP solver found no P ({})", s.sdp.status);
     return cert;
   }
-  Eigen::VectorXd W = Eigen::VectorXd::Ones(s.layout.N);
-  W.head(s.layout.n).setConstant(std::sqrt(k2));
+  const Eigen::VectorXd W = balancing(s.layout, k2);
   const Eigen::MatrixXd P = W.asDiagonal() * balanced_P(s.layout, s.sdp.y) * W.asDiagonal();
   cert.P = 0.5 * (P + P.transpose());
   cert.multipliers = s.sdp.y.segment(s.layout.tau_offset, s.layout.last - s.layout.tau_offset);

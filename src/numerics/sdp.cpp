@@ -158,8 +158,6 @@ SdpResult solve_sdp(int variables, const std::vector<LinearMatrixInequality>& bl
   check(DSDPStopReason(dsdp, &reason), "DSDPStopReason");
   check(DSDPGetSolutionType(dsdp, &type), "DSDPGetSolutionType");
   check(DSDPGetY(dsdp, result.y.data(), variables), "DSDPGetY");
-  check(DSDPGetIts(dsdp, &result.iterations), "DSDPGetIts");
-  result.objective = objective.dot(result.y);
   result.solved = reason == DSDP_CONVERGED && type == DSDP_PDFEASIBLE;
   result.status = type == DSDP_INFEASIBLE ? "infeasible" : type == DSDP_UNBOUNDED ? "unbounded" : stop_reason(reason);
   return result;

@@ -70,7 +70,9 @@ TEST(PolytopicCertificate, PendubotProvesFifteenAtTheTightDesignGain) {
   const double theta = 65.67;
   const obsgain::PolytopicCertificate cert = obsgain::polytopic_certificate(polytope, theta, theta * theta, 15.0);
   ASSERT_TRUE(cert.exists) << cert.status;
-  EXPECT_GT(cert.k, 1.0);
+  // A full P: it couples the two joints' errors, which P₂ ⊗ I cannot do.
+  EXPECT_GT(std::abs(cert.P(0, 1)) + std::abs(cert.P(2, 3)) + std::abs(cert.P(0, 3)),
+            1e-3 * std::sqrt(cert.P(0, 0) * cert.P(3, 3)));
   // The worst frozen Φ caps any quadratic certificate at 24.4: past it the check must fail.
   EXPECT_FALSE(obsgain::polytopic_check(polytope, theta, theta * theta, 24.5, cert.P, cert.multipliers));
 }

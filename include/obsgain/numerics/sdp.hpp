@@ -42,8 +42,6 @@ struct SdpResult {
   bool solved = false;  // converged with a feasible, bounded problem (false when `enough` stopped it)
   std::string status;   // the solver's reason, in words
   Eigen::VectorXd y;
-  double objective = 0.0;  // cᵀy
-  int iterations = 0;
 };
 
 // F0 + Σ_i y_i F_i, dense.
