@@ -66,9 +66,9 @@ void report(const BranchAndBoundOptions& options, const BranchAndBoundResult& r,
   SearchProgress p;
   p.bound = options.name;
   p.boxes = r.boxes;
-  p.lower = r.lower;
+  p.lower = std::min(r.lower, upper);  // as in the result: the attained value is a float estimate, within ulps
   p.upper = upper;
-  p.relative_gap = relative_gap(r.lower, upper);
+  p.relative_gap = relative_gap(p.lower, upper);
   p.target_gap = options.relative_gap;
   p.seconds = std::chrono::duration<double>(now - start).count();
   p.work = r.work;
