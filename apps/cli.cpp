@@ -307,18 +307,6 @@ void add_monte_carlo_options(CLI::App& app, MonteCarloArguments& a) {
       ->type_name("practical|global|both");
 }
 
-namespace {
-
-
-double parse_in(const std::string& name, const std::string& text, double lower, double upper) {
-  const double value = parse_number(name, text);
-  if (value < lower || value > upper) throw InputError(fmt::format("--{} = {} must lie in [{:g}, {:g}]", name, text, lower, upper));
-  return value;
-}
-
-
-}  // namespace
-
 MonteCarloOptions to_monte_carlo_options(const MonteCarloArguments& a, const DesignArguments& design) {
   const bool quiet = design.quiet;
   MonteCarloOptions o;
@@ -335,15 +323,14 @@ MonteCarloOptions to_monte_carlo_options(const MonteCarloArguments& a, const Des
   if (seed < 0 || seed != std::floor(seed) || seed > 9e15) throw InputError(fmt::format("seed = {} must be a whole number >= 0", a.seed));
   o.seed = static_cast<std::uint64_t>(seed);
   o.threads = parse_threads(design.threads);
-  // Tolerances the checks can trust (a loose integrator manufactures false counterexamples), a horizon that
-  // ends, and no more threads than could ever help.
-  o.simulation.horizon = parse_in("horizon", a.horizon, 1e-6, 1e3);
-  o.simulation.rtol = parse_in("rtol", a.rtol, 1e-13, 1e-4);
-  o.simulation.atol = parse_in("atol", a.atol, 1e-20, 1e-6);
+  o.simulation.horizon = parse_number("horizon", a.horizon);
+  o.simulation.rtol = parse_number("rtol", a.rtol);
+  o.simulation.atol = parse_number("atol", a.atol);
   o.scenario = a.scenario == "paper" ? Scenario::paper : Scenario::random;
   o.initial_errors = a.initial_errors == "practical" ? InitialErrors::practical
                      : a.initial_errors == "global"  ? InitialErrors::global
                                                      : InitialErrors::both;
+  validate_monte_carlo_options(o);
   return o;
 }
 
@@ -378,11 +365,7 @@ ValidationTarget load_validation_target(const DesignArguments& design, const std
     throw InputError("design file '" + design_file + "': " + e.what());
   }
   Model model = load_robot(saved.robot);
-  if (!saved.fingerprint.empty() && saved.fingerprint != model.fingerprint)
-    throw InputError("design file '" + design_file + "' was made for another version of '" + saved.robot.robot +
-                     "' (fingerprint " + saved.fingerprint + ", the file now " + model.fingerprint +
-                     "): run design-gains again");
-  validate_velocity_bounds(model, saved.certificate.observer.velocity_bounds);
+  check_saved_design_model(saved, model, "design file '" + design_file + "'");
   return {std::move(model), saved.certificate};
 }
 

@@ -2,6 +2,7 @@
 # Installs the Debian packages obsgain needs, and only those that are missing.
 # Usage: scripts/install-deps.sh [--with-bench] [--with-browser]   (root, or sudo available)
 #   --with-bench    SciPy, for the reference timings in bench/
+# Python 3's headers, pybind11, NumPy, pytest and Matplotlib: the Python module, its tests and examples.
 #   --with-browser  Chromium, for the test that screenshots the HTML report
 set -euo pipefail
 
@@ -11,10 +12,11 @@ packages=(
   libcli11-dev nlohmann-json3-dev libfmt-dev libgtest-dev libbenchmark-dev
   liborocos-kdl-dev libkdl-parser-dev liburdfdom-dev libtinyxml2-dev libconsole-bridge-dev
   gnuplot-nox libdsdp-dev
+  python3-dev pybind11-dev python3-pybind11 python3-numpy python3-pytest python3-matplotlib
 )
 for option in "$@"; do
   case "$option" in
-    --with-bench) packages+=(python3-numpy python3-scipy) ;;
+    --with-bench) packages+=(python3-scipy) ;;
     --with-browser) packages+=(chromium) ;;
     *) echo "install-deps: unknown option '$option'" >&2; exit 2 ;;
   esac

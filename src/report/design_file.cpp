@@ -115,4 +115,11 @@ SavedDesign saved_design_from_json_text(const std::string& text) {
   return saved_design_from_json(j);
 }
 
+void check_saved_design_model(const SavedDesign& saved, const Model& model, const std::string& label) {
+  if (!saved.fingerprint.empty() && saved.fingerprint != model.fingerprint)
+    throw InputError(label + " was made for another version of '" + saved.robot.robot + "' (fingerprint " +
+                     saved.fingerprint + ", the file now " + model.fingerprint + "): run design-gains again");
+  validate_velocity_bounds(model, saved.certificate.observer.velocity_bounds);
+}
+
 }  // namespace obsgain

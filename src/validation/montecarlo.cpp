@@ -178,13 +178,25 @@ std::vector<TrajectorySample> trial_trajectory(const Model& model, const Observe
   return samples;
 }
 
+void validate_monte_carlo_options(const MonteCarloOptions& options) {
+  // Tolerances the checks can trust (a loose integrator manufactures false counterexamples), a horizon that ends,
+  // and no more threads than could ever help.
+  const auto require_in = [](const char* name, double value, double lower, double upper) {
+    if (!(value >= lower && value <= upper))
+      throw InputError(fmt::format("--{} = {} must lie in [{:g}, {:g}]", name, value, lower, upper));
+  };
+  if (options.trials <= 0) throw InputError(fmt::format("trials = {} must be positive", options.trials));
+  if (options.threads < 0 || options.threads > 256)
+    throw InputError(fmt::format("--threads = {} must lie in [0, 256] (0: all cores)", options.threads));
+  require_in("horizon", options.simulation.horizon, 1e-6, 1e3);
+  require_in("rtol", options.simulation.rtol, 1e-13, 1e-4);
+  require_in("atol", options.simulation.atol, 1e-20, 1e-6);
+}
+
 namespace {
 
 void validate_monte_carlo(const Model& model, const ObserverCertificate& certificate, const MonteCarloOptions& options) {
-  if (options.trials <= 0) throw InputError("trials = " + std::to_string(options.trials) + " must be positive");
-  if (options.threads < 0) throw InputError("threads = " + std::to_string(options.threads) + " must be >= 0");
-  if (!(options.simulation.horizon > 0.0) || !std::isfinite(options.simulation.horizon))
-    throw InputError("horizon = " + std::to_string(options.simulation.horizon) + " must be positive and finite");
+  validate_monte_carlo_options(options);
   const CertifiedObserver& o = certificate.observer;
   if (!(o.gamma > 0.0) || !(o.k >= 1.0)) throw InputError("the certificate to validate needs gamma > 0 and k >= 1");
   if (o.P.rows() != 2 * model.dof() || o.P.cols() != 2 * model.dof())
@@ -242,16 +254,25 @@ MonteCarloReport run_monte_carlo(const Model& model, const ObserverCertificate& 
   report.records.resize(options.trials);
   // Each trial is a pure function of (seed, index): the records do not depend on which thread ran which.
   std::atomic<int> done{0};
+  std::atomic<bool> stop{false};
   auto trials = std::async(std::launch::async, [&] {
     ParallelFor pool(report.threads);
     pool.run(options.trials, [&](int i) {
+      if (stop) return;
       report.records[i] = run_trial(model, certificate, options, i);
       ++done;
     });
   });
-  while (trials.wait_for(std::chrono::milliseconds(200)) != std::future_status::ready)
-    if (options.progress)
+  while (trials.wait_for(std::chrono::milliseconds(200)) != std::future_status::ready) {
+    if (!options.progress) continue;
+    try {
       options.progress(done.load(), options.trials, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+    } catch (...) {  // the caller stops the run (Ctrl-C from Python): the trials not started are skipped
+      stop = true;
+      trials.wait();
+      throw;
+    }
+  }
   trials.get();
   summarise(report);
   report.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

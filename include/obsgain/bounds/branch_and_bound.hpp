@@ -44,7 +44,7 @@ struct BranchAndBoundOptions {
   std::chrono::steady_clock::time_point deadline = std::chrono::steady_clock::time_point::max();  // wall clock
   int threads = 0;             // 0: all cores
   const char* name = "";
-  ProgressCallback progress;   // optional; called from the coordinating thread
+  ProgressCallback progress;   // optional; called from the coordinating thread (an exception it throws ends the search)
 };
 
 // An upper bound of f over one box, and how much each side contributes to the bound's excess (the side with the

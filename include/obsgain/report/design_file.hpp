@@ -17,4 +17,8 @@ struct SavedDesign {
 // From design-gains' JSON text; InputError when it is not JSON or not a certified design.
 SavedDesign saved_design_from_json_text(const std::string& text);
 
+// The robot loaded again for a saved design (load_robot(saved.robot)) is the one it was made for: InputError,
+// starting with `label`, when the file changed since (another fingerprint) or the velocity box does not fit it.
+void check_saved_design_model(const SavedDesign& saved, const Model& model, const std::string& label);
+
 }  // namespace obsgain

@@ -24,7 +24,8 @@ struct MonteCarloOptions {
   double practical_position_error = 0.05;  // ||q̂(0) - q(0)|| bound of the practical set [rad]
   double global_error_scale = 10.0;        // global set: |e_q| <= this [rad], |v̂(0)| <= this × V
   int input_attempts = 4;                  // random scenario: input and initial perturbation quartered after each exit from V̄
-  // Told how many trials are done, about five times a second (from the calling thread).
+  // Told how many trials are done, about five times a second (from the calling thread). An exception it throws
+  // stops the run within the trials under way, and leaves run_monte_carlo.
   std::function<void(int done, int total, double seconds)> progress;
 };
 
@@ -64,6 +65,10 @@ struct MonteCarloReport {
 
   bool certificate_held() const { return envelope_violations == 0 && lyapunov_violations == 0; }
 };
+
+// Throws InputError naming the bad value: trials >= 1, threads in [0, 256], horizon in [1e-6, 1e3] s, rtol in
+// [1e-13, 1e-4], atol in [1e-20, 1e-6].
+void validate_monte_carlo_options(const MonteCarloOptions& options);
 
 // The certificate a design delivers: its selected observer, and the sampled offsets when it is deployed. InputError
 // when the design certifies no rate (there is no envelope to validate).
