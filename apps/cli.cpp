@@ -1,5 +1,6 @@
 #include "cli.hpp"
 
+#include "obsgain/numerics/distributed.hpp"
 #include "obsgain/parsers/robots.hpp"
 #include "obsgain/report/design_file.hpp"
 #include "obsgain/report/report.hpp"
@@ -109,6 +110,13 @@ void add_certificate_options(CLI::App& app, DesignArguments& a) {
                  "certified bounds: wall-time budget in seconds for the interval search (default 120; 0: until the "
                  "gap target); the design uses the proven upper ends reached, whatever the gap")
       ->type_name("SECONDS");
+  app.add_option("--checkpoint", a.checkpoint,
+                 "certified bounds: save the searches to FILE every 5 s, so that a killed job can --resume FILE")
+      ->type_name("FILE");
+  app.add_option("--resume", a.resume,
+                 "certified bounds: continue the searches FILE holds (a checkpoint of the same robot and request), "
+                 "saving there")
+      ->type_name("FILE");
   app.add_option("--rate-margin", a.rate_margin,
                  "tight certificate: P is computed at gamma_sup (1 - margin) (default 0.01)")
       ->type_name("FRACTION");
@@ -243,6 +251,10 @@ DesignRequest to_design_request(const DesignArguments& a, const Model& model) {
   if (!a.rate_margin.empty()) o.rate_margin = parse_number("rate-margin", a.rate_margin);
   if (!a.bound_budget.empty()) o.certified_bounds.budget_seconds = parse_number("bound-budget", a.bound_budget);
   o.certified_bounds.threads = parse_threads(a.threads);
+  if (!a.checkpoint.empty() && !a.resume.empty())
+    throw InputError("give one of --checkpoint FILE (a new search, saved there) and --resume FILE (continued from it)");
+  if (!a.checkpoint.empty() || !a.resume.empty())
+    o.certified_bounds.journal = std::make_shared<SearchJournal>(a.resume.empty() ? a.checkpoint : a.resume, !a.resume.empty());
   if (!a.vmax.empty()) o.velocity_bounds = parse_number_list("vmax", a.vmax);
   validate_design_options(o);
   return {o, to_deployment_options(a)};
@@ -370,6 +382,12 @@ ValidationTarget load_validation_target(const DesignArguments& design, const std
 }
 
 int run_app(CLI::App& app, int argc, char** argv, const std::function<int()>& body) {
+  const distributed::Session mpi(argc, argv);
+  // Every rank computes the same answer; rank 0 prints it (and writes the files: writes_files()).
+  if (!distributed::output_rank()) {
+    std::cout.rdbuf(nullptr);
+    std::cerr.rdbuf(nullptr);
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -382,6 +400,15 @@ int run_app(CLI::App& app, int argc, char** argv, const std::function<int()>& bo
     std::cerr << app.get_name() << ": error: " << e.what() << "\n";
     return 2;
   }
+  // Under MPI an error may be one rank's alone (a file it cannot write): it ends the job rather than leave the other
+  // ranks waiting. A request that cannot be met is every rank's answer, and ends normally.
+  const auto failed = [](int code) {
+    if (distributed::size() > 1) {
+      std::cerr.flush();
+      distributed::abort_job(code);
+    }
+    return code;
+  };
   try {
     const int code = body();
     close_progress_line();
@@ -389,7 +416,7 @@ int run_app(CLI::App& app, int argc, char** argv, const std::function<int()>& bo
   } catch (const InputError& e) {
     close_progress_line();
     std::cerr << app.get_name() << ": error: " << e.what() << "\n";
-    return 2;
+    return failed(2);
   } catch (const UnmetRequest& e) {
     close_progress_line();
     std::cerr << app.get_name() << ": error: " << e.what() << "\n";
@@ -397,7 +424,7 @@ int run_app(CLI::App& app, int argc, char** argv, const std::function<int()>& bo
   } catch (const std::exception& e) {
     close_progress_line();
     std::cerr << app.get_name() << ": internal error: " << e.what() << "\n";
-    return 3;
+    return failed(3);
   }
 }
 

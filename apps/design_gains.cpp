@@ -1,5 +1,6 @@
 // design-gains: observer gains for a target convergence rate (or the rate a given gain certifies).
 #include "cli.hpp"
+#include "obsgain/numerics/distributed.hpp"
 #include "obsgain/report/export.hpp"
 #include "obsgain/report/report.hpp"
 #include "obsgain/parsers/robots.hpp"
@@ -43,7 +44,7 @@ int main(int argc, char** argv) {
       std::cout << text;
     } else {
       std::cout << obsgain::format_report(design);
-      if (json->count() > 0) {
+      if (json->count() > 0 && obsgain::distributed::output_rank()) {
         std::ofstream file(json_path);
         if (!(file << text)) throw obsgain::InputError("cannot write JSON to '" + json_path + "'");
       }
@@ -58,7 +59,7 @@ int main(int argc, char** argv) {
          {std::pair{header_path, obsgain::observer_header(model, design)},
           std::pair{ros2_path, obsgain::ros2_parameters(design)},
           std::pair{observer_path, obsgain::exported_observer_text(obsgain::exported_observer(model, design))}}) {
-      if (path.empty()) continue;
+      if (path.empty() || !obsgain::distributed::output_rank()) continue;
       std::ofstream file(path);
       if (!(file << content)) throw obsgain::InputError("cannot write '" + path + "'");
     }

@@ -1,5 +1,6 @@
 // monte-carlo: simulate plant and observer from randomised initial errors against the certified envelope.
 #include "cli.hpp"
+#include "obsgain/numerics/distributed.hpp"
 #include "obsgain/report/report.hpp"
 
 #include <fstream>
@@ -26,6 +27,8 @@ int main(int argc, char** argv) {
     const obsgain::ValidationTarget target = obsgain::load_validation_target(design, arguments.design_file);
     const obsgain::MonteCarloReport report = obsgain::run_monte_carlo(target.model, target.certificate, options);
     obsgain::close_progress_line();
+    const int code = report.certificate_held() ? 0 : 1;
+    if (!obsgain::distributed::output_rank()) return code;  // rank 0 prints and writes the files
     if (json->count() > 0 && (json_path.empty() || json_path == "-")) {  // "-": stdout, as usual
       std::cout << obsgain::to_json_text(report);
     } else {
@@ -48,6 +51,6 @@ int main(int argc, char** argv) {
       obsgain::write_trajectory_csv(obsgain::trial_trajectory(target.model, target.certificate, options, report.records[0]),
                                     out);
     }
-    return report.certificate_held() ? 0 : 1;
+    return code;
   });
 }

@@ -63,6 +63,10 @@ void take_certificate(py::dict& a, DesignOptions& o) {
   o.certified_bounds.budget_seconds = take<double>(a, "bound_budget").value_or(o.certified_bounds.budget_seconds);
   o.rate_margin = take<double>(a, "rate_margin").value_or(o.rate_margin);
   o.velocity_bounds = take<Eigen::VectorXd>(a, "vmax").value_or(Eigen::VectorXd());
+  const auto checkpoint = take<std::string>(a, "checkpoint"), resume = take<std::string>(a, "resume");
+  if (checkpoint && resume)
+    throw InputError("give one of --checkpoint FILE (a new search, saved there) and --resume FILE (continued from it)");
+  if (checkpoint || resume) o.certified_bounds.journal = std::make_shared<SearchJournal>(resume ? *resume : *checkpoint, resume.has_value());
 }
 
 // The deployment, when any of its options is given (then all three of T, encoders and accelerations).

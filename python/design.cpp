@@ -150,6 +150,7 @@ void bind_design(py::module_& m) {
         "  certificate='tight' | 'paper' | 'polytopic', polytope_cells=32\n"
         "  lipschitz='joint' | 'paper', L: override the Lipschitz constant\n"
         "  bounds='certified' | 'numeric', bound_budget=120 [s], rate_margin=0.01, vmax: velocity bounds\n"
+        "  checkpoint=FILE (save the searches every 5 s) or resume=FILE (continue them)\n"
         "  threads=0 (all cores; the numbers do not depend on it)\n"
         "  deployment: sample_period [s], encoder_counts, acceleration_bounds [rad/s^2] (one, or one per joint),\n"
         "    latency [s], velocity_error_tolerance [rad/s], objective='rate' | 'velocity-error'\n"

@@ -3,6 +3,7 @@
 # Usage: scripts/install-deps.sh [--with-bench] [--with-browser]   (root, or sudo available)
 #   --with-bench    SciPy, for the reference timings in bench/
 # Python 3's headers, pybind11, NumPy, pytest and Matplotlib: the Python module, its tests and examples.
+# OpenMPI: the apps across the ranks of a cluster job (docs/cluster.md).
 #   --with-browser  Chromium, for the test that screenshots the HTML report
 set -euo pipefail
 
@@ -13,6 +14,7 @@ packages=(
   liborocos-kdl-dev libkdl-parser-dev liburdfdom-dev libtinyxml2-dev libconsole-bridge-dev
   gnuplot-nox libdsdp-dev
   python3-dev pybind11-dev python3-pybind11 python3-numpy python3-pytest python3-matplotlib
+  libopenmpi-dev openmpi-bin
 )
 for option in "$@"; do
   case "$option" in

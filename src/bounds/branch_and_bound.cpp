@@ -1,11 +1,13 @@
 #include "obsgain/bounds/branch_and_bound.hpp"
 
+#include "obsgain/numerics/distributed.hpp"
 #include "obsgain/numerics/parallel.hpp"
 
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <optional>
 #include <queue>
 
 namespace obsgain {
@@ -76,22 +78,116 @@ void report(const BranchAndBoundOptions& options, const BranchAndBoundResult& r,
   options.progress(p);
 }
 
-// Evaluates the children of one round in parallel, each against the bracket as the round began.
+// Evaluates one child against the bracket as the round began.
+void evaluate_child(const BranchAndBoundProblem& problem, const QueuedBox& parent, double lower, Child& child) {
+  const UpwardRounding upward;
+  child.value = problem.value(child.midpoint);
+  child.bound = problem.bound(child.x, std::max(lower, child.value));
+  // A child's supremum cannot exceed its parent's bound.
+  child.bound.upper = std::min(parent.upper, child.bound.upper);
+}
+
+// The children in the order the ranks take them: every size-th from each rank's first, so that the two halves of a
+// parent (about the same cost) go to different ranks and every rank's share of a round costs about the same.
+std::vector<std::size_t> dealt(std::size_t count) {
+  const auto ranks = static_cast<std::size_t>(distributed::size());
+  std::vector<std::size_t> order;
+  for (std::size_t first = 0; first < ranks; ++first)
+    for (std::size_t c = first; c < count; c += ranks) order.push_back(c);
+  return order;
+}
+
+// What a rank sends of a child it evaluated: value, upper bound, work, split weights (the box itself every rank
+// computes from its parent). Position p of the exchange holds child order[p].
+void share_children(std::vector<Child>& children, const std::vector<std::size_t>& order, int begin, int end,
+                    std::size_t dimension) {
+  const int width = 3 + static_cast<int>(dimension), count = static_cast<int>(children.size());
+  std::vector<double> values(static_cast<std::size_t>(count * width));
+  for (int p = begin; p < end; ++p) {
+    const Child& child = children[order[static_cast<std::size_t>(p)]];
+    double* out = &values[static_cast<std::size_t>(p * width)];
+    out[0] = child.value;
+    out[1] = child.bound.upper;
+    out[2] = child.bound.work;
+    // A box that is split has one weight per side; a discarded one may have fewer (never read).
+    const auto& weight = child.bound.split_weight;
+    std::copy_n(weight.begin(), std::min(weight.size(), dimension), out + 3);
+  }
+  distributed::share_slices(values, count, width);
+  for (int p = 0; p < count; ++p) {
+    if (p >= begin && p < end) continue;
+    Child& child = children[order[static_cast<std::size_t>(p)]];
+    const double* in = &values[static_cast<std::size_t>(p * width)];
+    child.value = in[0];
+    child.bound.upper = in[1];
+    child.bound.work = in[2];
+    child.bound.split_weight.assign(in + 3, in + width);
+  }
+}
+
+// Evaluates the children of one round in parallel, each against the bracket as the round began: the threads of
+// this rank its share of them, then the ranks exchange their shares (numerics/distributed.hpp).
 std::vector<Child> evaluate_round(const BranchAndBoundProblem& problem, const std::vector<QueuedBox>& parents,
                                   double lower, ParallelFor& pool) {
   std::vector<Child> children(2 * parents.size());
-  pool.run(static_cast<int>(children.size()), [&](int c) {
-    const UpwardRounding upward;
-    const QueuedBox& parent = parents[static_cast<std::size_t>(c / 2)];
-    Child& child = children[static_cast<std::size_t>(c)];
-    child.x = half(parent, c % 2);
-    child.midpoint = midpoint(child.x);
-    child.value = problem.value(child.midpoint);
-    child.bound = problem.bound(child.x, std::max(lower, child.value));
-    // A child's supremum cannot exceed its parent's bound.
-    child.bound.upper = std::min(parent.upper, child.bound.upper);
+  for (std::size_t c = 0; c < children.size(); ++c) {
+    children[c].x = half(parents[c / 2], static_cast<int>(c % 2));
+    children[c].midpoint = midpoint(children[c].x);
+  }
+  const std::vector<std::size_t> order = dealt(children.size());
+  const auto [begin, end] = distributed::slice(static_cast<int>(children.size()), distributed::rank(), distributed::size());
+  pool.run(end - begin, [&](int k) {
+    const std::size_t c = order[static_cast<std::size_t>(begin + k)];
+    evaluate_child(problem, parents[c / 2], lower, children[c]);
   });
+  if (distributed::size() > 1) share_children(children, order, begin, end, problem.domain.size());
   return children;
+}
+
+// The first box: the whole domain, and the seed's value attained.
+void begin(const BranchAndBoundProblem& problem, const Eigen::VectorXd& seed, BranchAndBoundResult& r, Queue& queue,
+           std::uint64_t& next_id) {
+  r.argmax = seed;
+  r.lower = problem.value(seed);
+  const UpwardRounding upward;
+  BoxBound first = problem.bound(problem.domain, r.lower);
+  r.work = first.work;
+  queue.push({problem.domain, first.upper, std::move(first.split_weight), next_id++});
+  r.boxes = 1;
+}
+
+void restore(const SearchState& state, BranchAndBoundResult& r, Queue& queue, double& pruned_upper,
+             std::uint64_t& next_id) {
+  r.lower = state.lower;
+  r.argmax = state.argmax;
+  r.work = state.work;
+  r.boxes = state.evaluated;
+  pruned_upper = state.pruned_upper;
+  next_id = state.next_id;
+  for (const SearchState::Box& box : state.boxes) queue.push({box.x, box.upper, box.weight, box.id});
+}
+
+SearchState snapshot(Queue queue, const BranchAndBoundResult& r, double pruned_upper, std::uint64_t next_id) {
+  SearchState state{{}, r.lower, pruned_upper, r.work, r.argmax, r.boxes, next_id};
+  state.boxes.reserve(queue.size());
+  for (; !queue.empty(); queue.pop()) {
+    const QueuedBox& box = queue.top();
+    state.boxes.push_back({box.x, box.upper, box.weight, box.id});
+  }
+  return state;
+}
+
+// Why the search stops before the next round, if it does.
+std::optional<SearchStop> stop_reason(const BranchAndBoundProblem& problem, const BranchAndBoundOptions& options,
+                                      const BranchAndBoundResult& r, const Queue& queue) {
+  // A box of no sides (nothing to search) is a point: its bound is final.
+  if (queue.empty() || problem.domain.empty() || relative_gap(r.lower, queue.top().upper) <= options.relative_gap)
+    return SearchStop::gap;
+  if (r.boxes >= options.max_boxes) return SearchStop::boxes;
+  if (r.work >= options.work_budget) return SearchStop::budget;
+  // Every rank stops in the same round: the wall clock is the one input the ranks do not share.
+  if (distributed::any(std::chrono::steady_clock::now() >= options.deadline)) return SearchStop::time;
+  return std::nullopt;
 }
 
 }  // namespace
@@ -100,36 +196,20 @@ BranchAndBoundResult branch_and_bound(const BranchAndBoundProblem& problem, cons
                                       const BranchAndBoundOptions& options) {
   const auto start = std::chrono::steady_clock::now();
   auto next_report = start + std::chrono::seconds(1);
+  auto next_save = start + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                               std::chrono::duration<double>(options.save_seconds));
   BranchAndBoundResult r;
-  r.argmax = seed;
-  r.lower = problem.value(seed);
   Queue queue;
   std::uint64_t next_id = 0;
-  {
-    const UpwardRounding upward;
-    BoxBound first = problem.bound(problem.domain, r.lower);
-    r.work = first.work;
-    queue.push({problem.domain, first.upper, std::move(first.split_weight), next_id++});
-  }
-  r.boxes = 1;
   double pruned_upper = 0.0;  // the largest bound of a discarded box: below the attained value, but proven
+  if (options.resume)
+    restore(*options.resume, r, queue, pruned_upper, next_id);
+  else
+    begin(problem, seed, r, queue, next_id);
   ParallelFor pool(options.threads);
   while (true) {
-    // A box of no sides (nothing to search) is a point: its bound is final.
-    if (queue.empty() || problem.domain.empty() || relative_gap(r.lower, queue.top().upper) <= options.relative_gap) {
-      r.stop = SearchStop::gap;
-      break;
-    }
-    if (r.boxes >= options.max_boxes) {
-      r.stop = SearchStop::boxes;
-      break;
-    }
-    if (r.work >= options.work_budget) {
-      r.stop = SearchStop::budget;
-      break;
-    }
-    if (std::chrono::steady_clock::now() >= options.deadline) {
-      r.stop = SearchStop::time;
+    if (const auto stop = stop_reason(problem, options, r, queue)) {
+      r.stop = *stop;
       break;
     }
     std::vector<QueuedBox> parents;
@@ -151,7 +231,12 @@ BranchAndBoundResult branch_and_bound(const BranchAndBoundProblem& problem, cons
         pruned_upper = std::max(pruned_upper, child.bound.upper);
     }
     r.boxes += static_cast<int>(children.size());
-    if (options.progress && std::chrono::steady_clock::now() >= next_report) {
+    if (options.save && distributed::output_rank() && std::chrono::steady_clock::now() >= next_save) {
+      options.save(snapshot(queue, r, pruned_upper, next_id));
+      next_save = std::chrono::steady_clock::now() + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                                          std::chrono::duration<double>(options.save_seconds));
+    }
+    if (options.progress && distributed::output_rank() && std::chrono::steady_clock::now() >= next_report) {
       next_report = std::chrono::steady_clock::now() + std::chrono::milliseconds(250);
       report(options, r, std::max(queue.empty() ? 0.0 : queue.top().upper, pruned_upper), start);
     }

@@ -49,6 +49,29 @@ class BudgetShares {
 
 }  // namespace
 
+BoundBracket journaled_search(const CertifiedOptions& options, const std::string& request, BranchAndBoundOptions search,
+                              const std::function<BoundBracket(const BranchAndBoundOptions&)>& run) {
+  SearchJournal* journal = options.journal.get();
+  if (journal == nullptr) return run(search);
+  const std::string name = search.name;
+  if (const auto done = journal->finished(name, request)) return *done;
+  search.resume = journal->state(name, request);
+  search.save = [journal, name, request](const SearchState& state) { journal->save(name, request, state); };
+  search.save_seconds = options.checkpoint_seconds;
+  const BoundBracket bracket = run(search);
+  journal->finish(name, request, bracket);
+  return bracket;
+}
+
+std::string search_request(const Model& model, const Eigen::VectorXd& velocity_bounds, const CertifiedOptions& options,
+                           const Eigen::VectorXd& extra) {
+  std::string request = fmt::format("{} ({}) V", model.name, model.fingerprint);
+  for (const double V : velocity_bounds) request += fmt::format(" {}", V);
+  for (const double x : extra) request += fmt::format(" {}", x);
+  return request + fmt::format(" gap {} budget {} focus {} boxes {}", options.relative_gap, options.budget_seconds,
+                               options.focus == LipschitzFocus::joint ? "joint" : "paper", options.max_boxes);
+}
+
 std::string certification_unavailable(const Model& model) {
   if (static_cast<int>(configuration_joints(model).size()) > kAffineSymbols)
     return fmt::format("model '{}' depends on {} joint positions; certified bounds search at most {}", model.name,
@@ -66,22 +89,23 @@ std::optional<CertifiedBounds> certify_bounds(const Model& model, const BoundRep
   // for the paper's Lipschitz constant; what a bound leaves unused passes to the next.
   const bool joint = options.focus == LipschitzFocus::joint;
   BudgetShares budget(options);
+  const std::string request = search_request(model, V, options);
+  const auto search = [&](double share, const char* name, const auto& bound, const auto& value, const Eigen::VectorXd& seed) {
+    const BoundBracket b = journaled_search(options, request, budget.next(share, name),
+                                            [&](const BranchAndBoundOptions& o) { return search_joints(s, bound, value, seed, o); });
+    budget.spent(b);
+    return b;
+  };
   CertifiedBounds result;
   const auto run_L = [&](double share) {
-    result.L_joint = search_joints(s, [&](const auto& box, double lower) { return boxes.joint_lipschitz(box, lower); },
-                                   [&](const Eigen::VectorXd& q) { return max_joint_lipschitz_norm(model, q, V); },
-                                   numeric.L_joint.q, budget.next(share, "L_joint"));
-    budget.spent(result.L_joint);
+    result.L_joint = search(share, "L_joint", [&](const auto& box, double lower) { return boxes.joint_lipschitz(box, lower); },
+                            [&](const Eigen::VectorXd& q) { return max_joint_lipschitz_norm(model, q, V); }, numeric.L_joint.q);
   };
   if (joint) run_L(0.9);
-  result.M0 = search_joints(s, [&](const auto& box, double) { return boxes.inverse_inertia(box); },
-                            [&](const Eigen::VectorXd& q) { return inverse_inertia_norm(model, q); }, numeric.M0.q,
-                            budget.next(joint ? 0.6 : 0.5, "M0"));
-  budget.spent(result.M0);
-  result.B = search_joints(s, [&](const auto& box, double lower) { return boxes.jacobian(box, lower); },
-                           [&](const Eigen::VectorXd& q) { return max_coriolis_jacobian_norm(model, q, V); }, numeric.B.q,
-                           budget.next(joint ? 1.0 : 0.8, "B"));
-  budget.spent(result.B);
+  result.M0 = search(joint ? 0.6 : 0.5, "M0", [&](const auto& box, double) { return boxes.inverse_inertia(box); },
+                     [&](const Eigen::VectorXd& q) { return inverse_inertia_norm(model, q); }, numeric.M0.q);
+  result.B = search(joint ? 1.0 : 0.8, "B", [&](const auto& box, double lower) { return boxes.jacobian(box, lower); },
+                    [&](const Eigen::VectorXd& q) { return max_coriolis_jacobian_norm(model, q, V); }, numeric.B.q);
   if (!joint) run_L(1.0);
   return result;
 }

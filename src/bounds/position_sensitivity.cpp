@@ -145,7 +145,8 @@ std::optional<BoundBracket> certify_position_sensitivity(const Model& model, con
   o.threads = options.threads;
   o.name = "C_q";
   o.progress = options.progress;
-  return search_joints(s, box_upper, point, seed, o);
+  return journaled_search(options, search_request(model, velocity_bounds, options, acceleration_bounds), o,
+                          [&](const BranchAndBoundOptions& search) { return search_joints(s, box_upper, point, seed, search); });
 }
 
 }  // namespace obsgain

@@ -1,11 +1,16 @@
 #include "obsgain/numerics/parallel.hpp"
 
+#include "obsgain/numerics/distributed.hpp"
+
 #include <algorithm>
 
 namespace obsgain {
 
 int resolve_threads(int requested) {
-  return requested > 0 ? requested : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  if (requested > 0) return requested;
+  // Ranks on one machine share its cores (docs/cluster.md).
+  const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  return std::max(1, cores / distributed::local_size());
 }
 
 ParallelFor::ParallelFor(int threads) {

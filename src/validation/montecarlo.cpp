@@ -1,5 +1,6 @@
 #include "obsgain/validation/montecarlo.hpp"
 
+#include "obsgain/numerics/distributed.hpp"
 #include "obsgain/numerics/parallel.hpp"
 
 #include <fmt/format.h>
@@ -211,6 +212,50 @@ void validate_monte_carlo(const Model& model, const ObserverCertificate& certifi
                                  certificate.sampled->sample_period));
 }
 
+// A trial record as doubles (its integers and flags are exact in a double), for the ranks to share.
+constexpr int kRecordWidth = 15;
+
+void pack(const TrialRecord& t, double* out) {
+  const TrialResult& r = t.result;
+  const double fields[kRecordWidth] = {static_cast<double>(t.index), static_cast<double>(t.global_error), t.input_scale,
+                                       t.initial_error, static_cast<double>(t.envelope_violated),
+                                       static_cast<double>(t.lyapunov_violated), static_cast<double>(r.left_velocity_box),
+                                       r.max_velocity_ratio, r.max_acceleration_ratio, r.final_velocity_error,
+                                       r.worst_envelope_ratio, r.worst_lyapunov_ratio, r.fitted_rate,
+                                       r.final_log_error_ratio, static_cast<double>(r.steps)};
+  std::copy(fields, fields + kRecordWidth, out);
+}
+
+TrialRecord unpack(const double* in) {
+  TrialRecord t;
+  t.index = static_cast<int>(in[0]);
+  t.global_error = in[1] != 0.0;
+  t.input_scale = in[2];
+  t.initial_error = in[3];
+  t.envelope_violated = in[4] != 0.0;
+  t.lyapunov_violated = in[5] != 0.0;
+  TrialResult& r = t.result;
+  r.left_velocity_box = in[6] != 0.0;
+  r.max_velocity_ratio = in[7];
+  r.max_acceleration_ratio = in[8];
+  r.final_velocity_error = in[9];
+  r.worst_envelope_ratio = in[10];
+  r.worst_lyapunov_ratio = in[11];
+  r.fitted_rate = in[12];
+  r.final_log_error_ratio = in[13];
+  r.steps = static_cast<int>(in[14]);
+  return t;
+}
+
+// Every rank's slice of the records, on every rank: the report is then the one-process report.
+void share_records(std::vector<TrialRecord>& records, int begin, int end) {
+  const int count = static_cast<int>(records.size());
+  std::vector<double> values(static_cast<std::size_t>(count * kRecordWidth));
+  for (int i = begin; i < end; ++i) pack(records[static_cast<std::size_t>(i)], &values[static_cast<std::size_t>(i * kRecordWidth)]);
+  distributed::share_slices(values, count, kRecordWidth);
+  for (int i = 0; i < count; ++i) records[static_cast<std::size_t>(i)] = unpack(&values[static_cast<std::size_t>(i * kRecordWidth)]);
+}
+
 // Trials outside the box are assumption violations: never passes, never observer failures.
 void summarise(MonteCarloReport& report) {
   std::vector<double> rates;
@@ -255,11 +300,13 @@ MonteCarloReport run_monte_carlo(const Model& model, const ObserverCertificate& 
   // Each trial is a pure function of (seed, index): the records do not depend on which thread ran which.
   std::atomic<int> done{0};
   std::atomic<bool> stop{false};
-  auto trials = std::async(std::launch::async, [&] {
+  // This rank's slice of the trials (all of them without MPI), then every rank's (numerics/distributed.hpp).
+  const auto [begin, end] = distributed::slice(options.trials, distributed::rank(), distributed::size());
+  auto trials = std::async(std::launch::async, [&, begin = begin, end = end] {
     ParallelFor pool(report.threads);
-    pool.run(options.trials, [&](int i) {
+    pool.run(end - begin, [&](int k) {
       if (stop) return;
-      report.records[i] = run_trial(model, certificate, options, i);
+      report.records[static_cast<std::size_t>(begin + k)] = run_trial(model, certificate, options, begin + k);
       ++done;
     });
   });
@@ -274,6 +321,7 @@ MonteCarloReport run_monte_carlo(const Model& model, const ObserverCertificate& 
     }
   }
   trials.get();
+  if (distributed::size() > 1) share_records(report.records, begin, end);
   summarise(report);
   report.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return report;

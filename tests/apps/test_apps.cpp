@@ -443,3 +443,25 @@ TEST(PolytopicApps, FallsBackToTheTightCertificateAndSaysWhy) {
 }
 
 }  // namespace
+
+namespace {
+
+// --checkpoint saves the certified searches; --resume takes the finished ones from the file (nothing is searched
+// again: the same brackets, their recorded times included) and refuses a checkpoint of another request, a file
+// that is not there, and both options at once. A search resumed mid-way: ArmBrackets.ResumedSearchesEndAs...
+TEST(DesignGainsApp, CheckpointAndResume) {
+  const std::string checkpoint = ::testing::TempDir() + "/pendubot_" + std::to_string(getpid()) + ".checkpoint";
+  const AppRun first = run("design-gains", "--gamma 1.27 --json --checkpoint " + checkpoint);
+  ASSERT_EQ(first.exit_code, 0) << first.err;
+  const AppRun again = run("design-gains", "--gamma 1.27 --json --resume " + checkpoint);
+  ASSERT_EQ(again.exit_code, 0) << again.err;
+  const auto brackets = [](const AppRun& r) { return nlohmann::json::parse(r.out).at("bounds").at("brackets"); };
+  EXPECT_EQ(brackets(first), brackets(again));
+  EXPECT_GT(brackets(again).at("M0").at("seconds").get<double>(), 0.0);
+  expect_refused("--gamma 1.27 --vmax 5,5 --resume " + checkpoint, "was saved for another request");
+  expect_refused("--gamma 1.27 --resume " + checkpoint + ".missing", "cannot read checkpoint");
+  expect_refused("--gamma 1.27 --checkpoint a --resume b", "give one of --checkpoint");
+  std::remove(checkpoint.c_str());
+}
+
+}  // namespace

@@ -9,6 +9,7 @@
 
 #include <gtest/gtest.h>
 
+#include <fstream>
 #include <numbers>
 #include <random>
 
@@ -279,3 +280,64 @@ TEST(ArmBrackets, SixAndSevenJointArmBracketsAreNeverBelowSampledValues) {
 }
 
 }  // namespace
+
+namespace {
+
+void expect_same_bracket(const obsgain::BoundBracket& a, const obsgain::BoundBracket& b) {
+  EXPECT_EQ(a.lower, b.lower);
+  EXPECT_EQ(a.upper, b.upper);
+  EXPECT_EQ(a.boxes, b.boxes);
+  EXPECT_EQ(a.work, b.work);
+  EXPECT_EQ(a.argmax, b.argmax);
+}
+
+}  // namespace
+
+// A search stopped mid-way (here its progress report throws, as Ctrl-C does; a killed job stops the same way, between
+// two checkpoints) leaves its checkpoint; resumed from it, the searches end with the brackets of a run never stopped,
+// to the bit, and those contain the dense grid's maxima. A checkpoint of another request is refused.
+TEST(ArmBrackets, ResumedSearchesEndAsSearchesNeverStopped) {
+  const obsgain::Model arm = obsgain::load_robot({examples + "/arm3.urdf"});
+  const obsgain::BoundReport numeric = light_search(arm);
+  obsgain::CertifiedOptions options;
+  options.budget_seconds = 0.0;  // until the gap
+  const obsgain::CertifiedBounds whole = *obsgain::certify_bounds(arm, numeric, options);
+  const std::string path = ::testing::TempDir() + "arm3.checkpoint";
+  obsgain::CertifiedOptions stopped = options;
+  stopped.journal = std::make_shared<obsgain::SearchJournal>(path, false);
+  stopped.checkpoint_seconds = 0.2;
+  stopped.progress = [](const obsgain::SearchProgress& p) {
+    if (std::string(p.bound) == "M0") throw std::runtime_error("stopped");
+  };
+  EXPECT_THROW(obsgain::certify_bounds(arm, numeric, stopped), std::runtime_error);
+
+  obsgain::CertifiedOptions resumed = options;
+  resumed.journal = std::make_shared<obsgain::SearchJournal>(path, true);
+  const std::string request = obsgain::search_request(arm, numeric.velocity_bounds, options);
+  ASSERT_TRUE(resumed.journal->finished("L_joint", request).has_value());
+  const obsgain::SearchState* state = resumed.journal->state("M0", request);
+  ASSERT_NE(state, nullptr);
+  EXPECT_GT(state->evaluated, 1000);  // M0 had run for a second
+  EXPECT_GT(state->boxes.size(), 10u);
+  const obsgain::CertifiedBounds again = *obsgain::certify_bounds(arm, numeric, resumed);
+  expect_same_bracket(again.L_joint, whole.L_joint);
+  expect_same_bracket(again.M0, whole.M0);
+  expect_same_bracket(again.B, whole.B);
+  const GridMaxima grid = arm3_grid(arm);
+  EXPECT_GE(again.M0.upper, grid.M0);
+  EXPECT_GE(again.L_joint.upper, grid.L);
+  EXPECT_LE(again.M0.upper - again.M0.lower, 1e-6 * again.M0.upper);
+
+  obsgain::CertifiedOptions other = options;
+  other.relative_gap = 1e-3;
+  other.journal = std::make_shared<obsgain::SearchJournal>(path, true);
+  try {
+    obsgain::certify_bounds(arm, numeric, other);
+    ADD_FAILURE() << "a checkpoint of another request was accepted";
+  } catch (const obsgain::InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("was saved for another request"), std::string::npos) << e.what();
+  }
+  std::ofstream(path) << "obsgain-checkpoint 1\nsearch M0 request x\nstate 1 2 three\n";
+  EXPECT_THROW(obsgain::SearchJournal(path, true), obsgain::InputError);
+  EXPECT_THROW(obsgain::SearchJournal(path + ".missing", true), obsgain::InputError);
+}

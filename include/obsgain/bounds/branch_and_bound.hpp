@@ -13,6 +13,7 @@
 #include <Eigen/Dense>
 
 #include <chrono>
+#include <cstdint>
 #include <functional>
 #include <limits>
 #include <string>
@@ -37,6 +38,22 @@ using ProgressCallback = std::function<void(const SearchProgress&)>;
 // bracket may then differ between runs).
 enum class SearchStop { gap, boxes, budget, time };
 
+// A search between two rounds: everything it needs to continue exactly as it would have (checkpoints,
+// docs/cluster.md).
+struct SearchState {
+  struct Box {
+    std::vector<Interval> x;
+    double upper = 0.0;
+    std::vector<double> weight;  // split weights
+    std::uint64_t id = 0;        // creation order (breaks ties between equal bounds)
+  };
+  std::vector<Box> boxes;  // the open boxes
+  double lower = 0.0, pruned_upper = 0.0, work = 0.0;
+  Eigen::VectorXd argmax;
+  int evaluated = 0;
+  std::uint64_t next_id = 0;
+};
+
 struct BranchAndBoundOptions {
   double relative_gap = 1e-6;  // stop when upper - lower <= relative_gap * upper
   int max_boxes = 2000000;     // stop after this many boxes (deterministic)
@@ -45,6 +62,11 @@ struct BranchAndBoundOptions {
   int threads = 0;             // 0: all cores
   const char* name = "";
   ProgressCallback progress;   // optional; called from the coordinating thread (an exception it throws ends the search)
+  // Checkpoints: `save` is handed the state between two rounds every `save_seconds` (on the output rank only), and
+  // a search given `resume` continues from that state: it then ends exactly as the search that saved it would have.
+  std::function<void(const SearchState&)> save;
+  double save_seconds = 5.0;
+  const SearchState* resume = nullptr;
 };
 
 // An upper bound of f over one box, and how much each side contributes to the bound's excess (the side with the

@@ -6,7 +6,9 @@
 
 #include "obsgain/bounds/bounds.hpp"
 #include "obsgain/bounds/branch_and_bound.hpp"
+#include "obsgain/bounds/search_journal.hpp"
 
+#include <memory>
 #include <optional>
 #include <string>
 
@@ -29,6 +31,10 @@ struct CertifiedOptions {
   int max_boxes = 2000000;      // per bound; reaching it leaves a wider (still valid) bracket
   int threads = 0;              // 0: all cores
   ProgressCallback progress;    // optional
+  // Checkpoints (search_journal.hpp): each search saves its state there every `checkpoint_seconds`, and continues
+  // from what the journal holds for it.
+  std::shared_ptr<SearchJournal> journal;
+  double checkpoint_seconds = 5.0;
 };
 
 struct CertifiedBounds {
@@ -51,6 +57,15 @@ std::string sensitivity_unavailable(const Model& model);
 std::optional<BoundBracket> certify_position_sensitivity(const Model& model, const Eigen::VectorXd& velocity_bounds,
                                                          const Eigen::VectorXd& acceleration_bounds,
                                                          const CertifiedOptions& options);
+
+// A search of `options` through its journal when it has one: a finished bracket is taken as it is, a saved state
+// continued, and the search's progress saved. `request`: what the search answers (search_request).
+BoundBracket journaled_search(const CertifiedOptions& options, const std::string& request, BranchAndBoundOptions search,
+                              const std::function<BoundBracket(const BranchAndBoundOptions&)>& run);
+// The request a search answers, for its checkpoint: the model (name and file fingerprint), the boxes, the gap and the
+// budget, and `extra` (the acceleration box of C_q).
+std::string search_request(const Model& model, const Eigen::VectorXd& velocity_bounds, const CertifiedOptions& options,
+                           const Eigen::VectorXd& extra = {});
 
 // Replaces the report's M0, B, L_joint (and L_paper) by the brackets' upper ends: θ* then rests on
 // provable bounds.

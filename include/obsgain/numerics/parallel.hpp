@@ -37,7 +37,7 @@ class ParallelFor {
   std::exception_ptr error_;
 };
 
-// The thread count a request means: 0 is every core.
+// The thread count a request means: 0 is every core (shared among the MPI ranks on this machine).
 int resolve_threads(int requested);
 
 }  // namespace obsgain

@@ -1,0 +1,50 @@
+// Checkpoints of long searches (--checkpoint FILE, --resume FILE; docs/cluster.md). The journal holds, for each
+// search by name, the request it answers (the model's fingerprint, the boxes, the gap and the budget) with its
+// finished bracket or its state between two rounds. A resumed job takes the finished brackets as they are and
+// continues the running search from its state: it ends with the same proof, to the bit, as a job never stopped.
+// A checkpoint saved for another model or another request is refused.
+#pragma once
+
+#include "obsgain/bounds/bounds.hpp"
+#include "obsgain/bounds/branch_and_bound.hpp"
+
+#include <map>
+#include <mutex>
+#include <optional>
+#include <string>
+
+namespace obsgain {
+
+class SearchJournal {
+ public:
+  // Saves to `path` (rank 0 writes; atomically, by renaming a complete file). With `resume`, first reads what the
+  // file holds: InputError when it cannot be read or is not a checkpoint.
+  SearchJournal(std::string path, bool resume);
+
+  // The search `name` under `request`: its finished bracket, or its saved state (null: none). InputError when the
+  // checkpoint holds `name` for another request.
+  std::optional<BoundBracket> finished(const std::string& name, const std::string& request) const;
+  const SearchState* state(const std::string& name, const std::string& request) const;
+
+  // Records and writes the file.
+  void save(const std::string& name, const std::string& request, const SearchState& state);
+  void finish(const std::string& name, const std::string& request, const BoundBracket& bracket);
+
+  const std::string& path() const { return path_; }
+
+ private:
+  struct Entry {
+    std::string request;
+    std::optional<BoundBracket> finished;
+    std::optional<SearchState> state;
+  };
+  const Entry* entry(const std::string& name, const std::string& request) const;
+  void read();
+  void write() const;
+
+  std::string path_;
+  std::map<std::string, Entry> entries_;
+  mutable std::mutex mutex_;
+};
+
+}  // namespace obsgain
