@@ -106,6 +106,14 @@ void bind_verdict(py::class_<PyDesign>& c) {
        }, "Why the design does not meet the request (what would help), or ''.")
       .def_property_readonly("warnings", [](const PyDesign& d) { return data(d)["warnings"]; })
       .def_property_readonly("notes", [](const PyDesign& d) { return data(d)["notes"]; })
+      .def_property_readonly("brackets", [](const PyDesign& d) {
+         py::dict brackets;
+         const py::dict bounds = data(d)["bounds"];
+         if (bounds.contains("brackets"))
+           for (const auto& [name, bracket] : py::dict(bounds["brackets"]))
+             brackets[name] = py::make_tuple(bracket["lower"], bracket["upper"]);
+         return brackets;
+       }, "The certified brackets {name: (attained, proven upper)} of M0, B and L_joint (empty for numeric bounds).")
       .def_property_readonly("data", &data, "The design's JSON document as a dict (every number: bounds, brackets, "
                                             "both certificates, the deployment).");
 }

@@ -25,6 +25,9 @@ def test_pendubot_equals_the_command_line(design):
     assert design.k2 == cli["design"]["k2"] and design.k == cli["design"]["k"]
     assert np.array_equal(design.P, np.array(cli["design"]["P"]))
     assert design.meets_request and design.proven and design.certificate == "tight"
+    lower, upper = design.brackets["L_joint"]
+    assert (lower, upper) == (cli["bounds"]["brackets"]["L_joint"]["lower"], cli["bounds"]["brackets"]["L_joint"]["upper"])
+    assert lower <= design.L == upper and upper - lower <= 1e-6 * upper  # the design rests on the proven upper end
 
 
 def test_deployment_equals_the_command_line(deployed):
