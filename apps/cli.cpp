@@ -193,26 +193,22 @@ void print_search_progress(const SearchProgress& p) {
 
 namespace {
 
-// Deployment options, when any of them is given (all three of T, encoders and accelerations are then needed).
+// The deployment options given (deployment_options says which combinations mean a deployment).
 std::optional<DeploymentOptions> to_deployment_options(const DesignArguments& a) {
-  const bool deployment = !a.sample_period.empty() || !a.encoder_counts.empty() || !a.acceleration_bounds.empty() ||
-                          !a.velocity_error_tolerance.empty() || !a.latency.empty();
-  if (!deployment) {
-    if (a.objective == "velocity-error")
-      throw InputError("--objective velocity-error needs a deployment: --sample-period, --encoder-counts, --acceleration-bounds");
-    return std::nullopt;
-  }
-  if (a.sample_period.empty() || a.encoder_counts.empty() || a.acceleration_bounds.empty())
-    throw InputError("a deployment needs all three of --sample-period, --encoder-counts and --acceleration-bounds");
-  DeploymentOptions d;
-  d.sample_period = parse_number("sample-period", a.sample_period);
-  d.encoder_resolution = encoder_resolution_from_counts(parse_number_list("encoder-counts", a.encoder_counts));
-  d.acceleration_bounds = parse_number_list("acceleration-bounds", a.acceleration_bounds);
-  if (!a.latency.empty()) d.latency = parse_number("latency", a.latency);
-  if (!a.velocity_error_tolerance.empty())
-    d.velocity_error_tolerance = parse_number("velocity-error-tolerance", a.velocity_error_tolerance);
-  d.objective = a.objective == "velocity-error" ? DesignObjective::velocity_error : DesignObjective::rate;
-  return d;
+  DeploymentRequest r;
+  const auto number = [](const char* name, const std::string& text) {
+    return text.empty() ? std::nullopt : std::optional<double>(parse_number(name, text));
+  };
+  const auto list = [](const char* name, const std::string& text) {
+    return text.empty() ? std::nullopt : std::optional<Eigen::VectorXd>(parse_number_list(name, text));
+  };
+  r.sample_period = number("sample-period", a.sample_period);
+  r.latency = number("latency", a.latency);
+  r.velocity_error_tolerance = number("velocity-error-tolerance", a.velocity_error_tolerance);
+  r.encoder_counts = list("encoder-counts", a.encoder_counts);
+  r.acceleration_bounds = list("acceleration-bounds", a.acceleration_bounds);
+  r.objective = a.objective == "velocity-error" ? DesignObjective::velocity_error : DesignObjective::rate;
+  return deployment_options(r);
 }
 
 // An option given with an empty value ("--vmax ''") would otherwise read as not given at all.
@@ -251,10 +247,7 @@ DesignRequest to_design_request(const DesignArguments& a, const Model& model) {
   if (!a.rate_margin.empty()) o.rate_margin = parse_number("rate-margin", a.rate_margin);
   if (!a.bound_budget.empty()) o.certified_bounds.budget_seconds = parse_number("bound-budget", a.bound_budget);
   o.certified_bounds.threads = parse_threads(a.threads);
-  if (!a.checkpoint.empty() && !a.resume.empty())
-    throw InputError("give one of --checkpoint FILE (a new search, saved there) and --resume FILE (continued from it)");
-  if (!a.checkpoint.empty() || !a.resume.empty())
-    o.certified_bounds.journal = std::make_shared<SearchJournal>(a.resume.empty() ? a.checkpoint : a.resume, !a.resume.empty());
+  o.certified_bounds.journal = open_search_journal(a.checkpoint, a.resume);
   if (!a.vmax.empty()) o.velocity_bounds = parse_number_list("vmax", a.vmax);
   validate_design_options(o);
   return {o, to_deployment_options(a)};
@@ -383,7 +376,7 @@ ValidationTarget load_validation_target(const DesignArguments& design, const std
 
 int run_app(CLI::App& app, int argc, char** argv, const std::function<int()>& body) {
   const distributed::Session mpi(argc, argv);
-  // Every rank computes the same answer; rank 0 prints it (and writes the files: writes_files()).
+  // Every rank computes the same answer; rank 0 prints it (the apps write their files on rank 0 only).
   if (!distributed::output_rank()) {
     std::cout.rdbuf(nullptr);
     std::cerr.rdbuf(nullptr);

@@ -62,34 +62,25 @@ void take_certificate(py::dict& a, DesignOptions& o) {
   o.bound_method = choice(a, "bounds", {"certified", "numeric"}) == "numeric" ? BoundMethod::numeric : BoundMethod::certified;
   o.certified_bounds.budget_seconds = take<double>(a, "bound_budget").value_or(o.certified_bounds.budget_seconds);
   o.rate_margin = take<double>(a, "rate_margin").value_or(o.rate_margin);
-  o.velocity_bounds = take<Eigen::VectorXd>(a, "vmax").value_or(Eigen::VectorXd());
-  const auto checkpoint = take<std::string>(a, "checkpoint"), resume = take<std::string>(a, "resume");
-  if (checkpoint && resume)
-    throw InputError("give one of --checkpoint FILE (a new search, saved there) and --resume FILE (continued from it)");
-  if (checkpoint || resume) o.certified_bounds.journal = std::make_shared<SearchJournal>(resume ? *resume : *checkpoint, resume.has_value());
+  if (const auto vmax = take<Eigen::VectorXd>(a, "vmax")) {
+    if (vmax->size() == 0) throw InputError("--vmax = '' is empty: give a value or leave the option out");
+    o.velocity_bounds = *vmax;
+  }
+  o.certified_bounds.journal = open_search_journal(take<std::string>(a, "checkpoint").value_or(""),
+                                                   take<std::string>(a, "resume").value_or(""));
 }
 
-// The deployment, when any of its options is given (then all three of T, encoders and accelerations).
+// The deployment's keywords (deployment_options says which combinations mean a deployment).
 std::optional<DeploymentOptions> take_deployment(py::dict& a) {
-  const std::string objective = choice(a, "objective", {"rate", "velocity-error"});
-  const auto T = take<double>(a, "sample_period");
-  const auto counts = take_values(a, "encoder_counts"), accelerations = take_values(a, "acceleration_bounds");
-  const auto latency = take<double>(a, "latency"), tolerance = take<double>(a, "velocity_error_tolerance");
-  if (!T && !counts && !accelerations && !latency && !tolerance) {
-    if (objective == "velocity-error")
-      throw InputError("--objective velocity-error needs a deployment: --sample-period, --encoder-counts, --acceleration-bounds");
-    return std::nullopt;
-  }
-  if (!T || !counts || !accelerations)
-    throw InputError("a deployment needs all three of --sample-period, --encoder-counts and --acceleration-bounds");
-  DeploymentOptions d;
-  d.sample_period = *T;
-  d.encoder_resolution = encoder_resolution_from_counts(*counts);
-  d.acceleration_bounds = *accelerations;
-  d.latency = latency.value_or(d.latency);
-  d.velocity_error_tolerance = tolerance.value_or(d.velocity_error_tolerance);
-  d.objective = objective == "velocity-error" ? DesignObjective::velocity_error : DesignObjective::rate;
-  return d;
+  DeploymentRequest r;
+  r.objective = choice(a, "objective", {"rate", "velocity-error"}) == "velocity-error" ? DesignObjective::velocity_error
+                                                                                      : DesignObjective::rate;
+  r.sample_period = take<double>(a, "sample_period");
+  r.encoder_counts = take_values(a, "encoder_counts");
+  r.acceleration_bounds = take_values(a, "acceleration_bounds");
+  r.latency = take<double>(a, "latency");
+  r.velocity_error_tolerance = take<double>(a, "velocity_error_tolerance");
+  return deployment_options(r);
 }
 
 }  // namespace

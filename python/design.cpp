@@ -104,8 +104,9 @@ void bind_verdict(py::class_<PyDesign>& c) {
       .def_property_readonly("unmet", [](const PyDesign& d) {
          return d.computed ? unmet_request(*d.computed, *d.options) : std::string();
        }, "Why the design does not meet the request (what would help), or ''.")
-      .def_property_readonly("warnings", [](const PyDesign& d) { return data(d)["warnings"]; })
-      .def_property_readonly("notes", [](const PyDesign& d) { return data(d)["notes"]; })
+      // py::object, not the accessor: an accessor would outlive the document it indexes.
+      .def_property_readonly("warnings", [](const PyDesign& d) { return py::list(data(d)["warnings"]); })
+      .def_property_readonly("notes", [](const PyDesign& d) { return py::list(data(d)["notes"]); })
       .def_property_readonly("brackets", [](const PyDesign& d) {
          py::dict brackets;
          const py::dict bounds = data(d)["bounds"];

@@ -110,7 +110,17 @@ void write_state(std::ostream& out, const SearchState& s) {
 }  // namespace
 
 SearchJournal::SearchJournal(std::string path, bool resume) : path_(std::move(path)) {
-  if (resume) read();
+  if (resume)
+    read();
+  else
+    write();
+}
+
+std::shared_ptr<SearchJournal> open_search_journal(const std::string& checkpoint, const std::string& resume) {
+  if (!checkpoint.empty() && !resume.empty())
+    throw InputError("give one of --checkpoint FILE (a new search, saved there) and --resume FILE (continued from it)");
+  if (checkpoint.empty() && resume.empty()) return nullptr;
+  return std::make_shared<SearchJournal>(resume.empty() ? checkpoint : resume, !resume.empty());
 }
 
 void SearchJournal::read() {

@@ -75,6 +75,24 @@ EllipsoidGeometry ellipsoid_geometry(const Eigen::MatrixXd& P) {
 
 }  // namespace
 
+std::optional<DeploymentOptions> deployment_options(const DeploymentRequest& r) {
+  if (!r.sample_period && !r.encoder_counts && !r.acceleration_bounds && !r.latency && !r.velocity_error_tolerance) {
+    if (r.objective == DesignObjective::velocity_error)
+      throw InputError("--objective velocity-error needs a deployment: --sample-period, --encoder-counts, --acceleration-bounds");
+    return std::nullopt;
+  }
+  if (!r.sample_period || !r.encoder_counts || !r.acceleration_bounds)
+    throw InputError("a deployment needs all three of --sample-period, --encoder-counts and --acceleration-bounds");
+  DeploymentOptions d;
+  d.sample_period = *r.sample_period;
+  d.encoder_resolution = encoder_resolution_from_counts(*r.encoder_counts);
+  d.acceleration_bounds = *r.acceleration_bounds;
+  d.latency = r.latency.value_or(d.latency);
+  d.velocity_error_tolerance = r.velocity_error_tolerance.value_or(d.velocity_error_tolerance);
+  d.objective = r.objective;
+  return d;
+}
+
 Eigen::VectorXd encoder_resolution_from_counts(const Eigen::VectorXd& counts) {
   Eigen::VectorXd resolution(counts.size());
   for (Eigen::Index i = 0; i < counts.size(); ++i) {

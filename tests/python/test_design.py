@@ -47,6 +47,16 @@ def test_unmet_request_is_a_result():
     assert "no finite proven upper bound" in d.unmet and "--armature" in d.unmet
 
 
+def test_warnings_and_notes_are_the_command_line_s(pendubot):
+    # An L given by the user below the model's: two warnings, as design-gains writes them.
+    d = obsgain.design_gains(pendubot, gamma=1.27, L=20)
+    cli = app_json("design-gains", "--robot", "pendubot", "--gamma", "1.27", "--L", "20")
+    assert d.warnings == cli["warnings"] and len(d.warnings) == 2 and "overridden" in d.warnings[0]
+    assert d.notes == cli["notes"]
+    del d  # the lists outlive the design they came from
+    assert cli["warnings"][1].startswith("the overriding L is below")
+
+
 def test_certificate_functions_reproduce_the_design(design):
     comparison = design.data["comparison"]
     S = obsgain.observer_lyapunov(1.0, 1.0, 2)

@@ -17,6 +17,9 @@ CASES = [
      lambda r: obsgain.design_gains(r, gamma=1, sample_period=2, encoder_counts=4096, acceleration_bounds=200)),
     (["--gamma", "1", "--sample-period", "0.001"], lambda r: obsgain.design_gains(r, gamma=1, sample_period=0.001)),
     (["--gamma", "1", "--objective", "velocity-error"], lambda r: obsgain.design_gains(r, gamma=1, objective="velocity-error")),
+    (["--gamma", "1", "--vmax", ""], lambda r: obsgain.design_gains(r, gamma=1, vmax=[])),
+    (["--gamma", "1", "--checkpoint", "/no/such/dir/run.checkpoint"],
+     lambda r: obsgain.design_gains(r, gamma=1, checkpoint="/no/such/dir/run.checkpoint")),
     (["--gamma", "1", "--optimize-shape", "--alpha", "2"], lambda r: obsgain.design_gains(r, gamma=1, optimize_shape=True, alpha=2)),
 ]
 

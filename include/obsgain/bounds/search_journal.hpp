@@ -9,6 +9,7 @@
 #include "obsgain/bounds/branch_and_bound.hpp"
 
 #include <map>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
@@ -18,7 +19,8 @@ namespace obsgain {
 class SearchJournal {
  public:
   // Saves to `path` (rank 0 writes; atomically, by renaming a complete file). With `resume`, first reads what the
-  // file holds: InputError when it cannot be read or is not a checkpoint.
+  // file holds: InputError when it cannot be read or is not a checkpoint. Without, writes an empty checkpoint at
+  // once: a path that cannot be written is refused before any search runs.
   SearchJournal(std::string path, bool resume);
 
   // The search `name` under `request`: its finished bracket, or its saved state (null: none). InputError when the
@@ -46,5 +48,9 @@ class SearchJournal {
   std::map<std::string, Entry> entries_;
   mutable std::mutex mutex_;
 };
+
+// The journal --checkpoint FILE (a new one) or --resume FILE (continued) asks for; null for neither. InputError
+// when both are given.
+std::shared_ptr<SearchJournal> open_search_journal(const std::string& checkpoint, const std::string& resume);
 
 }  // namespace obsgain

@@ -44,6 +44,17 @@ struct DeploymentOptions {
   std::optional<double> sensitivity_budget_seconds;
 };
 
+// What a request gives of a deployment (the command line's options, Python's keywords), each part optional.
+struct DeploymentRequest {
+  std::optional<double> sample_period, latency, velocity_error_tolerance;
+  std::optional<Eigen::VectorXd> encoder_counts, acceleration_bounds;  // one value, or one per joint
+  DesignObjective objective = DesignObjective::rate;
+};
+
+// The deployment a request means: none when none of it was given. InputError when T, the encoders or the
+// accelerations are missing, or when the velocity-error objective comes without a deployment.
+std::optional<DeploymentOptions> deployment_options(const DeploymentRequest& request);
+
 // Counts per revolution -> one count in radians: 2π / N.
 Eigen::VectorXd encoder_resolution_from_counts(const Eigen::VectorXd& counts_per_revolution);
 
