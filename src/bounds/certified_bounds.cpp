@@ -3,7 +3,7 @@
 #include "obsgain/bounds/box_bounds.hpp"
 #include "obsgain/bounds/joint_search.hpp"
 #include "obsgain/model/dynamics.hpp"
-#include "obsgain/numerics/affine.hpp"
+#include "obsgain/numerics/taylor.hpp"
 
 #include <fmt/format.h>
 
@@ -73,9 +73,9 @@ std::string search_request(const Model& model, const Eigen::VectorXd& velocity_b
 }
 
 std::string certification_unavailable(const Model& model) {
-  if (static_cast<int>(configuration_joints(model).size()) > kAffineSymbols)
+  if (static_cast<int>(configuration_joints(model).size()) > kTaylorSymbols)
     return fmt::format("model '{}' depends on {} joint positions; certified bounds search at most {}", model.name,
-                       configuration_joints(model).size(), kAffineSymbols);
+                       configuration_joints(model).size(), kTaylorSymbols);
   return {};
 }
 

@@ -1,7 +1,7 @@
 #include "json.hpp"
 #include "obsgain/bounds/certified_bounds.hpp"
 #include "obsgain/bounds/enclosures.hpp"
-#include "obsgain/numerics/affine.hpp"
+#include "obsgain/numerics/taylor.hpp"
 #include "obsgain/model/dynamics.hpp"
 #include "obsgain/design/design.hpp"
 #include "obsgain/report/report.hpp"
@@ -119,7 +119,7 @@ obsgain::Model long_chain(int n) {
 // A chain whose M and C depend on more joints than the interval search takes cannot be certified: numeric bounds,
 // with a warning saying so.
 TEST(CertifiedDesign, FallsBackToNumericWithAWarningAndIsNeverCalledCertified) {
-  const obsgain::Model model = long_chain(obsgain::kAffineSymbols + 2);
+  const obsgain::Model model = long_chain(obsgain::kTaylorSymbols + 2);
   obsgain::DesignOptions options;
   options.gamma = 1.0;
   options.bounds.global_evaluations_per_dimension = 10;  // the search itself is not what is tested

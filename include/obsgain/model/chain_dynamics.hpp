@@ -14,6 +14,7 @@
 #include <array>
 #include <cmath>
 #include <type_traits>
+#include <utility>
 
 namespace obsgain {
 
@@ -48,23 +49,40 @@ template <class S>
 Vec3<S> zero() {
   return {S(0.0), S(0.0), S(0.0)};
 }
+// Σ_j c_j x_j for constant c: on enclosures the zero coefficients are skipped (an axis along a coordinate axis makes
+// most of them zero, and every product and sum of forms costs work and adds rounding); in double, the plain sum.
+template <class S>
+S combine(double c0, const S& x0, double c1, const S& x1, double c2, const S& x2) {
+  if constexpr (std::is_same_v<S, double>) {
+    return c0 * x0 + c1 * x1 + c2 * x2;
+  } else {
+    S sum(0.0);
+    bool any = false;
+    for (const auto& [c, x] : {std::pair<double, const S*>{c0, &x0}, {c1, &x1}, {c2, &x2}}) {
+      if (c == 0.0) continue;
+      sum = any ? sum + c * *x : c * *x;
+      any = true;
+    }
+    return sum;
+  }
+}
 // R v for a constant R (not named apply: std::apply would join the overload set through std::array).
 template <class S>
 Vec3<S> rotate(const Eigen::Matrix3d& R, const Vec3<S>& v) {
   Vec3<S> r;
-  for (int i = 0; i < 3; ++i) r[i] = R(i, 0) * v[0] + R(i, 1) * v[1] + R(i, 2) * v[2];
+  for (int i = 0; i < 3; ++i) r[i] = combine(R(i, 0), v[0], R(i, 1), v[1], R(i, 2), v[2]);
   return r;
 }
 // Rᵀ v.
 template <class S>
 Vec3<S> rotate_back(const Eigen::Matrix3d& R, const Vec3<S>& v) {
   Vec3<S> r;
-  for (int i = 0; i < 3; ++i) r[i] = R(0, i) * v[0] + R(1, i) * v[1] + R(2, i) * v[2];
+  for (int i = 0; i < 3; ++i) r[i] = combine(R(0, i), v[0], R(1, i), v[1], R(2, i), v[2]);
   return r;
 }
 template <class S>
 S dot(const Eigen::Vector3d& a, const Vec3<S>& b) {
-  return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+  return combine(a[0], b[0], a[1], b[1], a[2], b[2]);
 }
 // ½ (a_x × b_y + a_y × b_x): the symmetrised product of two quantities linear in the joint velocities.
 // `same`: x and y are one velocity, and the product is computed once. Always inlined: the recursions call it a
@@ -87,6 +105,7 @@ template <class S>
 template <class S>
 struct ChainKinematics {
   std::array<S, kMaxChainJoints> c, s;
+  std::array<S, kMaxChainJoints> c2, s2;  // enclosures only: cos 2q_i, sin 2q_i (rotated inertias, below)
   std::array<Vec3<S>, kMaxChainJoints> p;
   std::array<Eigen::Matrix3d, kMaxChainJoints> rotation;  // double only: P_i Rot(a_i, q_i)
 };
@@ -107,7 +126,12 @@ void chain_kinematics(const SerialChain& chain, const S* q, ChainKinematics<S>& 
       const Eigen::Vector3d Pa = joint.rotation * joint.axis;
       for (int r = 0; r < 3; ++r) k.p[i][r] = joint.translation[r] + Pa[r] * q[i];
     }
-    if constexpr (std::is_same_v<S, double>) {
+    if constexpr (!std::is_same_v<S, double>) {
+      if (joint.type == JointType::revolute) {
+        k.c2[i] = cos(2.0 * q[i]);
+        k.s2[i] = sin(2.0 * q[i]);
+      }
+    } else {
       const Eigen::Vector3d& a = joint.axis;
       Eigen::Matrix3d skew;
       skew << 0.0, -a.z(), a.y(), a.z(), 0.0, -a.x(), -a.y(), a.x(), 0.0;
@@ -260,16 +284,63 @@ CompositeInertia<S> body_inertia(const RigidBody& body) {
   return I;
 }
 
+// Rows of X = A I Bᵀ for constant A, B and a symmetric I given by its rows.
+template <class S>
+std::array<Vec3<S>, 3> sandwich(const Eigen::Matrix3d& A, const std::array<Vec3<S>, 3>& I, const Eigen::Matrix3d& B) {
+  std::array<Vec3<S>, 3> IB;  // I Bᵀ: row r is (B I_r)ᵀ
+  for (int r = 0; r < 3; ++r) IB[r] = rotate(B, I[r]);
+  std::array<Vec3<S>, 3> X;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) X[r][c] = combine(A(r, 0), IB[0][c], A(r, 1), IB[1][c], A(r, 2), IB[2][c]);
+  return X;
+}
+
+// Rot I Rotᵀ for Rot = Rot(a, q) on enclosures. With Rot = A0 + c A1 + s A2 (A0 = a aᵀ, A1 = 1 - a aᵀ, A2 = [a×]) and
+// c² = (1 + cos 2q)/2, s² = (1 - cos 2q)/2, cs = sin 2q / 2:
+//   Rot I Rotᵀ = T0 + c T1 + s T2 + cos 2q T3 + sin 2q T4,
+//   T0 = A0 I A0ᵀ + (A1 I A1ᵀ + A2 I A2ᵀ)/2, T1 = A0 I A1ᵀ + A1 I A0ᵀ, T2 = A0 I A2ᵀ + A2 I A0ᵀ,
+//   T3 = (A1 I A1ᵀ - A2 I A2ᵀ)/2, T4 = (A1 I A2ᵀ + A2 I A1ᵀ)/2,
+// an identity in c and s. The part of I symmetric about a lives in T0 alone, which no enclosure of c or s multiplies:
+// a subtree nearly axisymmetric about its joint's axis turns with the enclosure error of its asymmetry only (a wrist
+// over its whole range; docs/theory.md, "Taylor forms").
+template <class S>
+std::array<Vec3<S>, 3> rotated_inertia(const Eigen::Vector3d& a, const S& c, const S& s, const S& c2, const S& s2,
+                                       const std::array<Vec3<S>, 3>& I) {
+  const Eigen::Matrix3d A0 = a * a.transpose(), A1 = Eigen::Matrix3d::Identity() - A0;
+  Eigen::Matrix3d A2;
+  A2 << 0.0, -a.z(), a.y(), a.z(), 0.0, -a.x(), -a.y(), a.x(), 0.0;
+  const auto I00 = sandwich(A0, I, A0), I11 = sandwich(A1, I, A1), I22 = sandwich(A2, I, A2);
+  const auto I01 = sandwich(A0, I, A1), I02 = sandwich(A0, I, A2), I12 = sandwich(A1, I, A2);
+  std::array<Vec3<S>, 3> R;
+  for (int r = 0; r < 3; ++r)
+    for (int k = 0; k < 3; ++k) {
+      const S T0 = I00[r][k] + 0.5 * (I11[r][k] + I22[r][k]);
+      const S T1 = I01[r][k] + I01[k][r], T2 = I02[r][k] + I02[k][r];
+      const S T3 = 0.5 * (I11[r][k] - I22[r][k]), T4 = 0.5 * (I12[r][k] + I12[k][r]);
+      R[r][k] = T0 + c * T1 + s * T2 + c2 * T3 + s2 * T4;
+    }
+  return R;
+}
+
 // Body i's composite inertia expressed about body i-1's origin, in its frame: h' = R h + m p, and
 // I' = R I Rᵀ - m [p×]² - [p×][(R h)×] - [(R h)×][p×] (parallel axes, with the first moment).
 template <class S>
 void add_to_parent(const SerialChain& chain, const ChainKinematics<S>& k, int i, const CompositeInertia<S>& child,
                    CompositeInertia<S>& parent) {
-  // R I Rᵀ = (R (R I)ᵀ)ᵀ: rotate I's columns (its rows, by symmetry) into T = R I, then T's rows.
-  std::array<Vec3<S>, 3> columns;  // columns[j] = T's column j
-  for (int j = 0; j < 3; ++j) columns[j] = to_parent(chain, k, i, child.rotational[j]);
   std::array<Vec3<S>, 3> rotated;  // rows of R I Rᵀ
-  for (int r = 0; r < 3; ++r) rotated[r] = to_parent(chain, k, i, Vec3<S>{columns[0][r], columns[1][r], columns[2][r]});
+  const ChainJoint& joint = chain.joints[i];
+  if constexpr (!std::is_same_v<S, double>) {
+    if (joint.type == JointType::revolute) {
+      const Eigen::Matrix3d& P = joint.rotation;
+      rotated = sandwich(P, rotated_inertia(joint.axis, k.c[i], k.s[i], k.c2[i], k.s2[i], child.rotational), P);
+    }
+  }
+  if (std::is_same_v<S, double> || joint.type != JointType::revolute) {
+    // R I Rᵀ = (R (R I)ᵀ)ᵀ: rotate I's columns (its rows, by symmetry) into T = R I, then T's rows.
+    std::array<Vec3<S>, 3> columns;  // columns[j] = T's column j
+    for (int j = 0; j < 3; ++j) columns[j] = to_parent(chain, k, i, child.rotational[j]);
+    for (int r = 0; r < 3; ++r) rotated[r] = to_parent(chain, k, i, Vec3<S>{columns[0][r], columns[1][r], columns[2][r]});
+  }
   const Vec3<S> h = to_parent(chain, k, i, child.moment);
   const Vec3<S>& p = k.p[i];
   parent.mass += child.mass;

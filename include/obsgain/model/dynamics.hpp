@@ -44,23 +44,26 @@ void coriolis_tensors_of(const Model& model, const S* q, S* N) {
   chain_coriolis_tensors(chain, k, N);
 }
 
-// N_i[j][k] = ½ (∂M_ij/∂q_k + ∂M_ik/∂q_j - ∂M_jk/∂q_i), the Christoffel symbols of the first kind, from M on
-// forward-mode duals along `joints` (every joint M depends on: the other derivatives vanish; at most
-// kMaxDirections). On affine forms the three derivatives share their noise symbols, so their first-order parts
-// combine exactly and only second-order remainders add: 4x narrower than the Newton–Euler tensors on 6- and
-// 7-joint arms (docs/theory.md, "Affine forms").
+// M(q) of a serial chain on forward-mode duals along `joints` (at most kMaxDirections): row-major values with their
+// partial derivatives, derivative d along joints[d].
 template <class S>
-void christoffel_tensors_of(const Model& model, const std::vector<int>& joints, const S* q, S* N) {
-  if (std::holds_alternative<Planar2RParameters>(model.structure)) return coriolis_tensors_of(model, q, N);
+std::vector<Dual<S>> mass_matrix_with_derivatives(const Model& model, const std::vector<int>& joints, const S* q) {
   const int n = model.dof(), directions = static_cast<int>(joints.size());
   std::vector<Dual<S>> qd(static_cast<std::size_t>(n)), M(static_cast<std::size_t>(n * n));
-  std::vector<int> direction(static_cast<std::size_t>(n), -1);
   for (int i = 0; i < n; ++i) qd[i] = Dual<S>(q[i]);
-  for (int d = 0; d < directions; ++d) {
-    direction[joints[d]] = d;
-    qd[joints[d]] = Dual<S>::variable(q[joints[d]], d, directions);
-  }
+  for (int d = 0; d < directions; ++d) qd[joints[d]] = Dual<S>::variable(q[joints[d]], d, directions);
   mass_matrix_of(model, qd.data(), M.data());
+  return M;
+}
+
+// N_i[j][k] = ½ (∂M_ij/∂q_k + ∂M_ik/∂q_j - ∂M_jk/∂q_i), the Christoffel symbols of the first kind, from M's
+// derivatives along `joints` (every joint M depends on: the other derivatives vanish). On Taylor forms the three
+// derivatives share their noise symbols, so their first- and second-order parts combine exactly and only third-order
+// remainders add: no enclosure is subtracted from another (docs/theory.md, "Taylor forms").
+template <class S>
+void christoffel_tensors_from(int n, const std::vector<int>& joints, const std::vector<Dual<S>>& M, S* N) {
+  std::vector<int> direction(static_cast<std::size_t>(n), -1);
+  for (std::size_t d = 0; d < joints.size(); ++d) direction[joints[d]] = static_cast<int>(d);
   const auto dM = [&](int i, int j, int k) { return direction[k] < 0 ? S(0.0) : M[i * n + j].derivative[direction[k]]; };
   for (int i = 0; i < n; ++i)
     for (int j = 0; j < n; ++j)
@@ -68,6 +71,12 @@ void christoffel_tensors_of(const Model& model, const std::vector<int>& joints, 
         N[(i * n + j) * n + k] = 0.5 * (dM(i, j, k) + dM(i, k, j) - dM(j, k, i));
         N[(i * n + k) * n + j] = N[(i * n + j) * n + k];
       }
+}
+
+template <class S>
+void christoffel_tensors_of(const Model& model, const std::vector<int>& joints, const S* q, S* N) {
+  if (std::holds_alternative<Planar2RParameters>(model.structure)) return coriolis_tensors_of(model, q, N);
+  christoffel_tensors_from(model.dof(), joints, mass_matrix_with_derivatives(model, joints, q), N);
 }
 
 template <class S>

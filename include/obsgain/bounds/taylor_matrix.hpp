@@ -1,0 +1,77 @@
+// Matrix functions over a box of configurations, as the proofs use them:
+//   X(ε) = C + Σ_k G_k ε_k + Σ_{k<=l} H_kl ε_k ε_l + Δ   for every ε in [-1, 1]^m (one symbol per searched side),
+// with ||Δ||₂ <= remainder. Built from the model's dynamics on second-order Taylor forms (numerics/taylor.hpp),
+// combined with their rounding errors bounded, and bounded in norm with the second-order term's sign: near a
+// maximum the bound's excess is third order in the box's width (docs/theory.md, "Certified bounds").
+#pragma once
+
+#include "obsgain/numerics/taylor.hpp"
+
+#include <Eigen/Dense>
+
+#include <utility>
+#include <vector>
+
+namespace obsgain {
+
+// The products ε_k ε_l (k <= l < m) of m symbols, in the order TaylorMatrix::curvatures holds them.
+std::vector<std::pair<int, int>> symbol_pairs(int symbols);
+
+struct TaylorMatrix {
+  Eigen::MatrixXd centre;
+  std::vector<Eigen::MatrixXd> slopes;      // G_k, one per symbol in use
+  std::vector<Eigen::MatrixXd> curvatures;  // H_kl, in the order of symbol_pairs(slopes.size())
+  double remainder = 0.0;                   // ||Δ||₂ <= remainder
+  // |Δ_ij| <= entry_remainder(i, j) where known (from forms entry by entry; empty after combinations): λmin then
+  // sees which entries the remainder sits in, not only its norm.
+  Eigen::MatrixXd entry_remainder;
+
+  int symbols() const { return static_cast<int>(slopes.size()); }
+  // An upper bound of ||X(ε)||_F over the box (cheap, first order): ||C||_F + Σ ||G_k||_F + Σ ||H_kl||_F + remainder.
+  double frobenius_upper() const;
+  // |X(ε) - C| <= spread entrywise over the box, rounded up.
+  Eigen::MatrixXd spread() const;
+};
+
+// From a row-major array of forms: entries' remainders become a Frobenius bound of Δ.
+TaylorMatrix taylor_matrix(const Taylor* entries, int rows, int cols, int symbols);
+
+// Σ_j weight_j X_j (each X_j of one size), with the rounding of the sums in the remainder; `frobenius`: the terms'
+// frobenius_upper(), computed once for the many combinations of the same terms.
+TaylorMatrix linear_combination(const std::vector<TaylorMatrix>& terms, const Eigen::VectorXd& weights,
+                                const std::vector<double>& frobenius);
+// Their frobenius_upper(), for linear_combination.
+std::vector<double> frobenius_uppers(const std::vector<TaylorMatrix>& terms);
+// X D + Y for a diagonal D with entries in [0, 1] (X's columns kept or scaled down), written into `out` (whose storage
+// is reused); `frobenius`: X.frobenius_upper() + Y.frobenius_upper(), which bounds the sums' rounding.
+void scaled_sum(const TaylorMatrix& X, const Eigen::VectorXd& d, const TaylorMatrix& Y, double frobenius, TaylorMatrix& out);
+
+// An upper bound of ||Σ_j w_j X_j D + R|| for every |w_j| <= V_j and diagonal D in [0, 1]ⁿ at once, from entry
+// moduli: Σ_j V_j |X_j| + |R| (each over the box) in Frobenius norm. No enumeration of vertices or patterns: the
+// cheap test that a box cannot beat a value attained elsewhere.
+double every_choice_upper(const std::vector<TaylorMatrix>& X, const Eigen::VectorXd& V, const TaylorMatrix& R);
+
+// Proven bounds over the box. `floor`: the caller only needs to know whether the bound exceeds it; once a cheap
+// bound is below it, the finer ones are skipped (the value returned is then still an upper bound).
+double norm_upper(const TaylorMatrix& X, double floor);
+// λmin of a symmetric X, from below.
+double smallest_eigenvalue_lower(const TaylorMatrix& X);
+
+// M(ε)⁻¹ over the box, for a symmetric M(ε) (row-major n x n forms): with K ≈ L⁻¹ from the Cholesky factor of M's
+// centre, Y = K M Kᵀ = I + E, ||E(ε)||₂ <= η < 1 proves M invertible on the box, and
+// M⁻¹ = Kᵀ (I - E + E²) K - Kᵀ E³ (I + E)⁻¹ K: the first term as forms (exact to second order), the second of norm
+// <= ||K||² η³ / (1 - η) (the tail). `proven` is false when the box is too wide for η < 1.
+struct TaylorInverse {
+  std::vector<Taylor> entries;
+  double tail = 0.0;
+  bool proven = false;
+};
+TaylorInverse inverse(const std::vector<Taylor>& M, int n, int symbols);
+
+// Row-major products of forms: (rows x inner) by (inner x cols), rounding included in the forms.
+std::vector<Taylor> product(const std::vector<Taylor>& A, const std::vector<Taylor>& B, int rows, int inner, int cols);
+
+// An upper bound of max_ε ||X(ε)||_F for row-major forms: sqrt Σ (|c| + radius)², rounded up.
+double frobenius_upper(const std::vector<Taylor>& X);
+
+}  // namespace obsgain

@@ -1,0 +1,209 @@
+// Second-order Taylor forms: x = c + Σ_k a_k ε_k + Σ_{k<=l} b_kl ε_k ε_l + e, with ε_k ∈ [-1, 1] the noise symbols of a
+// box's sides and |e| <= r. A value computed from a box's midpoint carries its first- and second-order dependence on
+// every side exactly (a Taylor model of order two), so that the curvature of what the bounds maximise is known with
+// its sign, and only third-order terms (and rounding) go into the remainder r (docs/theory.md, "Taylor forms").
+//
+// Rigour: every operation bounds the floating-point error of what it computes (|fl(x ∘ y) - x ∘ y| <= 2⁻⁵² |fl(x ∘ y)|
+// in any rounding mode, plus 2⁻¹⁰⁷⁴ for underflow) and adds it to r, and every sum of non-negative error terms is
+// inflated to cover its own rounding, so the forms are enclosures whatever the FPU's rounding mode.
+#pragma once
+
+#include "obsgain/numerics/interval.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+
+namespace obsgain {
+
+// Noise symbols per form: one per searched joint (a chain of up to eight joints searches seven).
+inline constexpr int kTaylorSymbols = 7;
+// Products ε_k ε_l, k <= l.
+inline constexpr int kTaylorPairs = kTaylorSymbols * (kTaylorSymbols + 1) / 2;
+
+// The symbols of pair p, and the pair of two symbols. Ordered by the larger symbol, so that the pairs of the first m
+// symbols are the first m (m + 1) / 2.
+struct TaylorPairs {
+  std::array<int, kTaylorPairs> first{}, second{};
+  std::array<std::array<int, kTaylorSymbols>, kTaylorSymbols> index{};
+  constexpr TaylorPairs() {
+    int p = 0;
+    for (int l = 0; l < kTaylorSymbols; ++l)
+      for (int k = 0; k <= l; ++k) {
+        first[p] = k;
+        second[p] = l;
+        index[k][l] = index[l][k] = p;
+        ++p;
+      }
+  }
+};
+inline constexpr TaylorPairs kPairs{};
+constexpr int pair_count(int symbols) { return symbols * (symbols + 1) / 2; }
+
+struct Taylor {
+  double c = 0.0;                          // centre
+  std::array<double, kTaylorSymbols> a{};  // first-order coefficients
+  std::array<double, kTaylorPairs> b{};    // second-order coefficients, in the order of kPairs
+  double r = 0.0;                          // remainder radius
+  int symbols = 0;                         // coefficients of symbols from here on are zero and never written
+
+  Taylor() = default;
+  Taylor(double x) : c(x) {}  // NOLINT: an exact constant mixes freely with forms
+  // centre + radius ε_k.
+  static Taylor symbol(double centre, double radius, int k) {
+    Taylor x(centre);
+    x.a[k] = radius;
+    x.symbols = k + 1;
+    return x;
+  }
+  // Σ|a_k|, Σ|b_kl|: the first- and second-order deviations' sizes.
+  double linear_size() const;
+  double quadratic_size() const;
+  // The form's deviation from its centre over the box, rounded up.
+  double radius() const;
+  // An enclosure of the range, rounded outward (squares ε_k² taken in [0, 1]).
+  double lower() const;
+  double upper() const;
+};
+
+inline constexpr double kTaylorInflation = 1.0 + 0x1p-45;
+inline constexpr double kTaylorRoundoff = 0x1p-52;
+inline constexpr double kTaylorUnderflow = 0x1p-1060;
+
+namespace taylor_detail {
+
+// r from a sum of non-negative error terms.
+inline double up(double terms) { return terms * kTaylorInflation + kTaylorUnderflow; }
+
+}  // namespace taylor_detail
+
+inline double Taylor::linear_size() const {
+  double s = 0.0;
+  for (int k = 0; k < symbols; ++k) s += std::abs(a[k]);
+  return taylor_detail::up(s);
+}
+inline double Taylor::quadratic_size() const {
+  double s = 0.0;
+  for (int p = 0; p < pair_count(symbols); ++p) s += std::abs(b[p]);
+  return taylor_detail::up(s);
+}
+inline double Taylor::radius() const { return taylor_detail::up(linear_size() + quadratic_size() + r); }
+
+inline double Taylor::upper() const {
+  double high = linear_size() + r;
+  for (int p = 0; p < pair_count(symbols); ++p) high += kPairs.first[p] == kPairs.second[p] ? std::max(0.0, b[p]) : std::abs(b[p]);
+  high = taylor_detail::up(high);
+  return c + high * kTaylorInflation + 2.0 * kTaylorRoundoff * (std::abs(c) + high);
+}
+inline double Taylor::lower() const {
+  double low = linear_size() + r;
+  for (int p = 0; p < pair_count(symbols); ++p) low += kPairs.first[p] == kPairs.second[p] ? std::max(0.0, -b[p]) : std::abs(b[p]);
+  low = taylor_detail::up(low);
+  return c - low * kTaylorInflation - 2.0 * kTaylorRoundoff * (std::abs(c) + low);
+}
+
+// Coefficient-wise sum: each coefficient's rounding is at most 2⁻⁵² of its modulus.
+inline Taylor operator+(const Taylor& x, const Taylor& y) {
+  Taylor z(x.c + y.c);
+  z.symbols = std::max(x.symbols, y.symbols);
+  for (int k = 0; k < z.symbols; ++k) z.a[k] = x.a[k] + y.a[k];
+  for (int p = 0; p < pair_count(z.symbols); ++p) z.b[p] = x.b[p] + y.b[p];
+  z.r = taylor_detail::up(x.r + y.r + kTaylorRoundoff * (std::abs(z.c) + z.linear_size() + z.quadratic_size()));
+  return z;
+}
+
+inline Taylor operator-(const Taylor& x) {
+  Taylor z(-x.c);
+  z.symbols = x.symbols;
+  for (int k = 0; k < z.symbols; ++k) z.a[k] = -x.a[k];
+  for (int p = 0; p < pair_count(z.symbols); ++p) z.b[p] = -x.b[p];
+  z.r = x.r;
+  return z;
+}
+
+inline Taylor operator-(const Taylor& x, const Taylor& y) { return x + (-y); }
+
+inline Taylor operator*(double s, const Taylor& x) {
+  Taylor z(s * x.c);
+  z.symbols = x.symbols;
+  for (int k = 0; k < z.symbols; ++k) z.a[k] = s * x.a[k];
+  for (int p = 0; p < pair_count(z.symbols); ++p) z.b[p] = s * x.b[p];
+  const double as = std::abs(s);
+  z.r = taylor_detail::up(as * x.r + kTaylorRoundoff * (std::abs(z.c) + z.linear_size() + z.quadratic_size()));
+  return z;
+}
+
+// (xc + xl + xq + xe)(yc + yl + yq + ye): the centre, the linear terms xc yl + yc xl, the quadratic terms
+// xc yq + yc xq + xl yl exactly; the cubic and quartic terms xl yq + xq yl + xq yq, bounded by the products of the
+// coefficient sums (|ε| <= 1), and every product with an error term bounded by the factors' ranges.
+// Rounding: every coefficient is a sum of at most four products of one term of x and one of y, each such product
+// appearing in one coefficient only: the rounding of them all is within 4.01 · 2⁻⁵² · (|xc| + X1 + X2)(|yc| + Y1 + Y2).
+inline Taylor operator*(const Taylor& x, const Taylor& y) {
+  const double X1 = x.linear_size(), X2 = x.quadratic_size(), Y1 = y.linear_size(), Y2 = y.quadratic_size();
+  Taylor z(x.c * y.c);
+  z.symbols = std::max(x.symbols, y.symbols);
+  for (int k = 0; k < z.symbols; ++k) z.a[k] = x.c * y.a[k] + y.c * x.a[k];
+  for (int p = 0; p < pair_count(z.symbols); ++p) {
+    const int k = kPairs.first[p], l = kPairs.second[p];
+    const double square = k == l ? x.a[k] * y.a[k] : x.a[k] * y.a[l] + x.a[l] * y.a[k];
+    z.b[p] = x.c * y.b[p] + y.c * x.b[p] + square;
+  }
+  const double xt = std::abs(x.c) + X1 + X2, yt = std::abs(y.c) + Y1 + Y2;
+  z.r = taylor_detail::up(X1 * Y2 + X2 * Y1 + X2 * Y2 + xt * y.r + yt * x.r + x.r * y.r +
+                          4.01 * kTaylorRoundoff * xt * yt);
+  return z;
+}
+
+inline Taylor operator*(const Taylor& x, double s) { return s * x; }
+inline Taylor operator+(double s, const Taylor& x) { return Taylor(s) + x; }
+inline Taylor operator+(const Taylor& x, double s) { return x + Taylor(s); }
+inline Taylor operator-(double s, const Taylor& x) { return Taylor(s) - x; }
+inline Taylor operator-(const Taylor& x, double s) { return x - Taylor(s); }
+inline Taylor& operator+=(Taylor& x, const Taylor& y) { return x = x + y; }
+inline Taylor& operator-=(Taylor& x, const Taylor& y) { return x = x - y; }
+inline Taylor& operator*=(Taylor& x, const Taylor& y) { return x = x * y; }
+
+namespace taylor_detail {
+
+// The argument's range [c - deviation, c + deviation], rounded outward.
+inline Interval argument_range(double c, double deviation) {
+  const double slack = 2.0 * kTaylorRoundoff * (std::abs(c) + deviation) + kTaylorUnderflow;
+  return Interval(c - deviation - slack, c + deviation + slack);
+}
+
+// f(c + t) = f(c) + f'(c) t + f''(c) t²/2 + f'''(ξ) t³/6 for f = sin or cos, with |t| <= ρ and f''' bounded by the
+// range `third` of f''' over the argument. f(c), f'(c), f''(c) = -f(c) from the C library (within an ulp, counted
+// twice). On a wide argument, where that remainder alone is wider than the constant form mid(range) ± rad(range),
+// the constant form is taken.
+inline Taylor second_order_expansion(const Taylor& x, double value, double slope, const Interval& range,
+                                     const Interval& third) {
+  Taylor t = x;
+  t.c = 0.0;
+  const double rho = x.radius();
+  const double third_size = std::max(std::abs(third.lower()), std::abs(third.upper()));
+  const double cubic = up(third_size * rho * rho * rho / 6.0 * kTaylorInflation);
+  const double constant_radius = 0.5 * (range.upper() - range.lower());
+  if (constant_radius < cubic) {
+    Taylor constant(0.5 * (range.lower() + range.upper()));
+    constant.r = up(constant_radius + 2.0 * kTaylorRoundoff * (std::abs(constant.c) + constant_radius));
+    return constant;
+  }
+  Taylor z = value + slope * t + (-0.5 * value) * (t * t);
+  z.r = up(z.r + cubic + 2.0 * kTaylorRoundoff * (std::abs(value) + std::abs(slope) * rho + 0.5 * rho * rho));
+  return z;
+}
+
+}  // namespace taylor_detail
+
+inline Taylor cos(const Taylor& x) {
+  const Interval argument = taylor_detail::argument_range(x.c, x.radius());
+  return taylor_detail::second_order_expansion(x, std::cos(x.c), -std::sin(x.c), boost::numeric::cos(argument),
+                                               boost::numeric::sin(argument));
+}
+inline Taylor sin(const Taylor& x) {
+  const Interval argument = taylor_detail::argument_range(x.c, x.radius());
+  return taylor_detail::second_order_expansion(x, std::sin(x.c), std::cos(x.c), boost::numeric::sin(argument),
+                                               -boost::numeric::cos(argument));
+}
+
+}  // namespace obsgain

@@ -1,0 +1,445 @@
+#include "obsgain/bounds/taylor_matrix.hpp"
+
+#include "obsgain/numerics/interval.hpp"
+#include "obsgain/numerics/spectrum.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace obsgain {
+
+namespace {
+
+constexpr double kInfinity = std::numeric_limits<double>::infinity();
+
+// Rounding of a double dot product of length n (or of a matrix product's entries): at most γ_n Σ|x_i||y_i|.
+double gamma(int n) { return (n + 2) * kTaylorRoundoff * 1.01; }
+
+// An upper bound of a non-negative quantity computed in floating point by a short sequence of operations.
+double up(double x) { return x * kTaylorInflation + kTaylorUnderflow; }
+
+double frobenius(const Eigen::MatrixXd& X) { return up(std::sqrt(up(X.squaredNorm()))); }
+
+// ||X Y - fl(X Y)||_F for a product computed in double: <= γ_n || |X| |Y| ||_F <= γ_n ||X||_F ||Y||_F.
+double product_rounding(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y) {
+  return up(gamma(static_cast<int>(X.cols())) * frobenius(X) * frobenius(Y));
+}
+double product_rounding(const Eigen::MatrixXd& X, double Y_frobenius) {
+  return up(gamma(static_cast<int>(X.cols())) * frobenius(X) * Y_frobenius);
+}
+
+// max over |t| <= 1 of l t + q t², a non-negative value, rounded up (a few operations, each within 2⁻⁵²).
+double quadratic_maximum(double l, double q) {
+  const double al = std::abs(l);
+  const double value = q < 0.0 && al < -2.0 * q ? al * al / (-4.0 * q) : al + q;
+  return up(std::max(0.0, value) * (1.0 + 8.0 * kTaylorRoundoff));
+}
+
+// An upper bound of max over the box of Σ_k l_k ε_k + Σ_{k,l} Q_kl ε_k ε_l (Q symmetric): each symbol's own
+// quadratic maximised exactly, the cross terms by their moduli. At a maximum the linear terms vanish and the
+// diagonal is negative: the bound is then about the cross terms, not the curvature's size.
+double quadratic_polynomial_upper(const Eigen::VectorXd& l, const Eigen::MatrixXd& Q) {
+  double bound = 0.0;
+  for (Eigen::Index k = 0; k < l.size(); ++k) {
+    bound += quadratic_maximum(l(k), Q(k, k));
+    for (Eigen::Index j = 0; j < l.size(); ++j)
+      if (j != k) bound += std::abs(Q(k, j));
+  }
+  return up(bound);
+}
+
+}  // namespace
+
+std::vector<std::pair<int, int>> symbol_pairs(int symbols) {
+  std::vector<std::pair<int, int>> pairs;
+  for (int p = 0; p < pair_count(symbols); ++p) pairs.emplace_back(kPairs.first[p], kPairs.second[p]);
+  return pairs;
+}
+
+double TaylorMatrix::frobenius_upper() const {
+  double bound = frobenius(centre) + remainder;
+  for (const auto& G : slopes) bound += frobenius(G);
+  for (const auto& H : curvatures) bound += frobenius(H);
+  return up(bound);
+}
+
+Eigen::MatrixXd TaylorMatrix::spread() const {
+  const UpwardRounding upward;  // sums of non-negative terms, rounded up
+  Eigen::MatrixXd s = entry_remainder.size() > 0 ? entry_remainder
+                                                 : Eigen::MatrixXd::Constant(centre.rows(), centre.cols(), remainder);
+  for (const Eigen::MatrixXd& G : slopes) s += G.cwiseAbs();
+  for (const Eigen::MatrixXd& H : curvatures) s += H.cwiseAbs();
+  return s;
+}
+
+double every_choice_upper(const std::vector<TaylorMatrix>& X, const Eigen::VectorXd& V, const TaylorMatrix& R) {
+  const UpwardRounding upward;
+  Eigen::MatrixXd E = R.centre.cwiseAbs() + R.spread();
+  for (std::size_t j = 0; j < X.size(); ++j)
+    E += std::abs(V(static_cast<Eigen::Index>(j))) * (X[j].centre.cwiseAbs() + X[j].spread());
+  return frobenius(E);
+}
+
+TaylorMatrix taylor_matrix(const Taylor* entries, int rows, int cols, int symbols) {
+  const auto pairs = symbol_pairs(symbols);
+  TaylorMatrix X;
+  X.centre.resize(rows, cols);
+  X.slopes.assign(static_cast<std::size_t>(symbols), Eigen::MatrixXd(rows, cols));
+  X.curvatures.assign(pairs.size(), Eigen::MatrixXd(rows, cols));
+  X.entry_remainder.resize(rows, cols);
+  double squares = 0.0;
+  for (int i = 0; i < rows; ++i)
+    for (int j = 0; j < cols; ++j) {
+      const Taylor& x = entries[i * cols + j];
+      X.centre(i, j) = x.c;
+      for (int k = 0; k < symbols; ++k) X.slopes[k](i, j) = x.a[k];
+      for (std::size_t p = 0; p < pairs.size(); ++p) X.curvatures[p](i, j) = x.b[p];
+      X.entry_remainder(i, j) = x.r;
+      squares += x.r * x.r;
+    }
+  X.remainder = up(std::sqrt(up(squares)));
+  return X;
+}
+
+std::vector<double> frobenius_uppers(const std::vector<TaylorMatrix>& terms) {
+  std::vector<double> f;
+  for (const TaylorMatrix& X : terms) f.push_back(X.frobenius_upper());
+  return f;
+}
+
+TaylorMatrix linear_combination(const std::vector<TaylorMatrix>& terms, const Eigen::VectorXd& weights,
+                                const std::vector<double>& frobenius) {
+  TaylorMatrix X;
+  X.centre = Eigen::MatrixXd::Zero(terms[0].centre.rows(), terms[0].centre.cols());
+  X.slopes.assign(terms[0].slopes.size(), X.centre);
+  X.curvatures.assign(terms[0].curvatures.size(), X.centre);
+  double rounding = 0.0;  // Σ_j |w_j| ||X_j||_F, times γ: the rounding of every entry's sum
+  for (std::size_t j = 0; j < terms.size(); ++j) {
+    const double w = weights(static_cast<Eigen::Index>(j));
+    if (w == 0.0) continue;
+    X.centre += w * terms[j].centre;
+    for (std::size_t k = 0; k < X.slopes.size(); ++k) X.slopes[k] += w * terms[j].slopes[k];
+    for (std::size_t p = 0; p < X.curvatures.size(); ++p) X.curvatures[p] += w * terms[j].curvatures[p];
+    X.remainder += std::abs(w) * terms[j].remainder;
+    rounding += std::abs(w) * frobenius[j];
+  }
+  X.remainder = up(X.remainder + gamma(static_cast<int>(terms.size())) * rounding);
+  return X;
+}
+
+void scaled_sum(const TaylorMatrix& X, const Eigen::VectorXd& d, const TaylorMatrix& Y, double frobenius,
+                TaylorMatrix& out) {
+  out.centre.noalias() = X.centre * d.asDiagonal();
+  out.centre += Y.centre;
+  out.slopes.resize(X.slopes.size());
+  for (std::size_t k = 0; k < X.slopes.size(); ++k) {
+    out.slopes[k].noalias() = X.slopes[k] * d.asDiagonal();
+    out.slopes[k] += Y.slopes[k];
+  }
+  out.curvatures.resize(X.curvatures.size());
+  for (std::size_t p = 0; p < X.curvatures.size(); ++p) {
+    out.curvatures[p].noalias() = X.curvatures[p] * d.asDiagonal();
+    out.curvatures[p] += Y.curvatures[p];
+  }
+  // Each entry x d + y is rounded twice, each time within 2⁻⁵² of its modulus: ||·||_F of the error <= 2 · 2⁻⁵² ·
+  // (||X D||_F + ||Y||_F) per term, and ||X D||_F <= ||X||_F for d in [0, 1].
+  out.remainder = up(X.remainder * d.cwiseAbs().maxCoeff() + Y.remainder + 2.0 * kTaylorRoundoff * frobenius);
+  out.entry_remainder.resize(0, 0);  // known as a norm only from here
+}
+
+namespace {
+
+// X's polynomial part in a basis V, Y(ε) = X(ε) V = Ĉ + Σ_k ĝ_k ε_k + Σ_p ĥ_p ε_p, with what the products lose to
+// rounding as a perturbation of norm <= rho.
+struct BasisTerms {
+  Eigen::MatrixXd C;
+  std::vector<Eigen::MatrixXd> G, H;
+  double rho = 0.0;
+};
+
+BasisTerms in_basis(const TaylorMatrix& X, const Eigen::MatrixXd& V) {
+  const double V_frobenius = frobenius(V);
+  BasisTerms t{X.centre * V, {}, {}, product_rounding(X.centre, V_frobenius)};
+  t.G.reserve(X.slopes.size());
+  t.H.reserve(X.curvatures.size());
+  for (const auto& G : X.slopes) {
+    t.G.push_back(G * V);
+    t.rho += product_rounding(G, V_frobenius);
+  }
+  for (const auto& H : X.curvatures) {
+    t.H.push_back(H * V);
+    t.rho += product_rounding(H, V_frobenius);
+  }
+  t.rho = up(t.rho);
+  return t;
+}
+
+// The Gram matrix of Y(ε), entry by entry: |Ĝ_ij(ε)| <= bound(i, j) over the box (for i = j an upper bound of Ĝ_ii
+// itself). Ĝ_ij = ĉ_i·ĉ_j + Σ_k (ĉ_i·ĝ_jk + ĝ_ik·ĉ_j) ε_k + [Σ_p (ĉ_i·ĥ_jp + ĥ_ip·ĉ_j) ε_p + (Σ_k ĝ_ik ε_k)·(Σ_k ĝ_jk ε_k)]
+// + higher orders, bounded with the columns' first- and second-order sizes s_i = Σ_k ||ĝ_ik||, t_i = Σ_p ||ĥ_ip||.
+Eigen::MatrixXd gram_bounds(const BasisTerms& t, Eigen::VectorXd& s, Eigen::VectorXd& h) {
+  const auto n = t.C.cols();
+  const int rows = static_cast<int>(t.C.rows());
+  const Eigen::MatrixXd P = t.C.transpose() * t.C;
+  Eigen::MatrixXd mixed = Eigen::MatrixXd::Zero(n, n), Q(n, n);
+  s = Eigen::VectorXd::Zero(n);
+  h = Eigen::VectorXd::Zero(n);
+  double terms = 0.0;  // Σ ||ĝ_k||_F + Σ ||ĥ_p||_F
+  const auto add = [&](const Eigen::MatrixXd& X, Eigen::VectorXd& sizes) {
+    Q.noalias() = t.C.transpose() * X;
+    mixed += (Q + Q.transpose()).cwiseAbs();
+    sizes += X.colwise().norm().transpose();
+    terms += frobenius(X);
+  };
+  for (const auto& g : t.G) add(g, s);
+  for (const auto& H : t.H) add(H, h);
+  // Every entry's products Σ_r x_r y_r are rounded within γ_rows Σ_r |x_r||y_r| <= γ_rows ||x|| ||y||: at most
+  // γ_rows (||Ĉ||_F² + 2 ||Ĉ||_F Σ ||terms||_F) for any entry.
+  const double C_frobenius = frobenius(t.C);
+  const double rounding = gamma(rows) * C_frobenius * (C_frobenius + 2.0 * terms);
+  const Eigen::MatrixXd bound = (P.cwiseAbs() + mixed + s * s.transpose() + s * h.transpose() + h * s.transpose() +
+                                 h * h.transpose()).array() + rounding;
+  s = s.unaryExpr([](double x) { return up(x * (1.0 + 1e-12)); });  // the column norms, rounded
+  h = h.unaryExpr([](double x) { return up(x * (1.0 + 1e-12)); });
+  return bound.unaryExpr([](double x) { return up(x * (1.0 + 1e-12)); });
+}
+
+// An upper bound of Ĝ_00(ε) = ||y_0(ε)||² that keeps the sign of its second-order term:
+// σ² + Σ_k l_k ε_k + εᵀQε + (cubic and quartic terms), l_k = 2 ĉ_0·ĝ_0k, Q = [ĝ_0k·ĝ_0l] + the curvatures 2 ĉ_0·ĥ_0p.
+double top_gram_upper(const BasisTerms& t, double s0, double h0) {
+  const int m = static_cast<int>(t.G.size());
+  const auto pairs = symbol_pairs(m);
+  const Eigen::VectorXd c0 = t.C.col(0);
+  Eigen::VectorXd l(m);
+  Eigen::MatrixXd g0(t.C.rows(), m);
+  for (int k = 0; k < m; ++k) {
+    g0.col(k) = t.G[k].col(0);
+    l(k) = 2.0 * c0.dot(g0.col(k));
+  }
+  Eigen::MatrixXd Q = g0.transpose() * g0;
+  double curvature_abs = 0.0;
+  for (std::size_t p = 0; p < pairs.size(); ++p) {
+    const double coefficient = 2.0 * c0.dot(t.H[p].col(0));
+    curvature_abs += c0.cwiseAbs().dot(t.H[p].col(0).cwiseAbs());
+    const auto [k, j] = pairs[p];
+    if (k == j) {
+      Q(k, k) += coefficient;
+    } else {
+      Q(k, j) += 0.5 * coefficient;
+      Q(j, k) += 0.5 * coefficient;
+    }
+  }
+  const UpwardRounding upward;
+  const double sigma2 = c0.squaredNorm();
+  double linear_abs = 0.0;  // Σ_k |ĉ_0|·|ĝ_0k|: l's rounding, whatever cancels in l itself
+  for (int k = 0; k < m; ++k) linear_abs += c0.cwiseAbs().dot(g0.col(k).cwiseAbs());
+  const double magnitudes = c0.cwiseAbs().squaredNorm() + 2.0 * linear_abs + s0 * s0 + 2.0 * curvature_abs;
+  const double rounding = gamma(static_cast<int>(t.C.rows()) + 2 * m + 2) * magnitudes;
+  return up(sigma2 + quadratic_polynomial_upper(l, Q) + 2.0 * s0 * h0 + h0 * h0 + rounding);
+}
+
+// λmax of a symmetric matrix from bounds on its first row and the rest: for any unit z, λmax <= the largest
+// eigenvalue of [[a, b], [b, c]] with a >= zᵀGz, b >= ||(I - zzᵀ)Gz||, c >= λmax of G on z⊥ (docs/theory.md).
+Interval two_by_two_upper(const Interval& a, const Interval& b2, const Interval& c) {
+  return (a + c) / 2.0 + boost::numeric::sqrt(boost::numeric::square((a - c) / 2.0) + b2);
+}
+
+// The right singular vectors of C (leading first) and their non-orthogonality δ, bounded (δ >= 0.5: unusable).
+Eigen::MatrixXd singular_basis(const Eigen::MatrixXd& C, double& delta) {
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(C.transpose() * C);
+  const Eigen::MatrixXd V = eigen.eigenvectors().rowwise().reverse();
+  const auto n = V.cols();
+  delta = up(frobenius(V.transpose() * V - Eigen::MatrixXd::Identity(n, n)) + product_rounding(V.transpose(), V));
+  return V;
+}
+
+}  // namespace
+
+// λmax of Ĝ(ε) from the top direction (the centre's leading right singular vector): a from the signed second-order
+// expansion of Ĝ_00, b and c from the entry bounds (c by Gershgorin). The excess is b²/(a - c), the cross terms of
+// the second-order part and the third-order terms.
+double norm_upper(const TaylorMatrix& X, double floor) {
+  const double cheap = X.frobenius_upper();
+  if (cheap <= floor || !std::isfinite(cheap)) return cheap;
+  double delta = 0.0;
+  const Eigen::MatrixXd V = singular_basis(X.centre, delta);
+  if (!(delta < 0.5)) return cheap;
+  const BasisTerms t = in_basis(X, V);
+  Eigen::VectorXd s, h;
+  const Eigen::MatrixXd bound = gram_bounds(t, s, h);
+  const auto n = bound.cols();
+  const UpwardRounding upward;
+  const Interval a(std::min(bound(0, 0), top_gram_upper(t, s(0), h(0))));
+  Interval b2(0.0), c(0.0);
+  for (Eigen::Index i = 1; i < n; ++i) {
+    b2 += boost::numeric::square(Interval(bound(i, 0)));
+    Interval row(bound(i, i));
+    for (Eigen::Index j = 1; j < n; ++j)
+      if (j != i) row += Interval(bound(i, j));
+    c = Interval(std::max(c.upper(), row.upper()));
+  }
+  using boost::numeric::sqrt;
+  const Interval sigma = (sqrt(two_by_two_upper(a, b2, c)) + Interval(t.rho)) / sqrt(Interval(1.0) - Interval(delta)) +
+                         Interval(X.remainder);
+  return std::min(cheap, sigma.upper());
+}
+
+namespace {
+
+// A lower bound of T_00(ε) = v_0ᵀ X(ε) v_0 over the box, keeping the sign of its second-order terms.
+double top_entry_lower(double centre, const Eigen::VectorXd& slopes, const std::vector<Eigen::MatrixXd>& curvatures,
+                       int m) {
+  const auto pairs = symbol_pairs(m);
+  Eigen::MatrixXd Q = Eigen::MatrixXd::Zero(m, m);
+  for (std::size_t p = 0; p < pairs.size(); ++p) {
+    const auto [k, j] = pairs[p];
+    const double coefficient = -curvatures[p](0, 0);
+    if (k == j) {
+      Q(k, k) += coefficient;
+    } else {
+      Q(k, j) += 0.5 * coefficient;
+      Q(j, k) += 0.5 * coefficient;
+    }
+  }
+  const UpwardRounding upward;
+  return -(-centre + quadratic_polynomial_upper(-slopes, Q));
+}
+
+}  // namespace
+
+double smallest_eigenvalue_lower(const TaylorMatrix& X) {
+  const int n = static_cast<int>(X.centre.cols()), m = X.symbols();
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(0.5 * (X.centre + X.centre.transpose()));
+  const Eigen::MatrixXd& V = eigen.eigenvectors();  // smallest first
+  const Eigen::MatrixXd W = V.transpose() * V - Eigen::MatrixXd::Identity(n, n);
+  const double delta = up(frobenius(W) + product_rounding(V.transpose(), V));
+  if (!(delta < 0.5)) return -kInfinity;
+  // T(ε) = Vᵀ X_poly(ε) V: centre, slopes and curvatures, with the products' rounding as a perturbation of norm <= rho.
+  const auto rounding = [&](const Eigen::MatrixXd& Y) {
+    return up(product_rounding(V.transpose(), Y) * frobenius(V) + product_rounding(V.transpose() * Y, V));
+  };
+  const Eigen::MatrixXd T = V.transpose() * X.centre * V;
+  double rho = rounding(X.centre);
+  Eigen::MatrixXd spread = Eigen::MatrixXd::Zero(n, n);  // Σ_k |T_k(i, j)| + Σ_p |T_p(i, j)|
+  Eigen::VectorXd top_slopes(m);
+  std::vector<Eigen::MatrixXd> curvatures;
+  for (int k = 0; k < m; ++k) {
+    const Eigen::MatrixXd Tk = V.transpose() * X.slopes[k] * V;
+    top_slopes(k) = Tk(0, 0);
+    spread += Tk.cwiseAbs();
+    rho += rounding(X.slopes[k]);
+  }
+  for (const auto& H : X.curvatures) {
+    curvatures.push_back(V.transpose() * H * V);
+    spread += curvatures.back().cwiseAbs();
+    rho += rounding(H);
+  }
+  // The remainder in the same basis, entry by entry where its entries are known: |VᵀΔV| <= |V|ᵀ|Δ||V| (rounded up).
+  const bool by_entry = X.entry_remainder.size() == X.centre.size();
+  Eigen::MatrixXd remainder = Eigen::MatrixXd::Zero(n, n);
+  if (by_entry)
+    remainder = (V.cwiseAbs().transpose() * X.entry_remainder * V.cwiseAbs()).unaryExpr([&](double x) {
+      return up(x * (1.0 + gamma(2 * n)));
+    });
+  spread += remainder;
+  const Eigen::MatrixXd magnitude = T.cwiseAbs() + spread;  // |T_ij(ε)| <= magnitude(i, j)
+  const Interval a = Interval(top_entry_lower(T(0, 0), top_slopes, curvatures, m)) - Interval(remainder(0, 0));
+  Interval b2(0.0), c(kInfinity);
+  for (int i = 1; i < n; ++i) {
+    b2 += boost::numeric::square(Interval(magnitude(i, 0)));
+    Interval row = Interval(T(i, i)) - Interval(spread(i, i));
+    for (int j = 1; j < n; ++j)
+      if (j != i) row -= Interval(magnitude(i, j));
+    c = Interval(std::min(c.lower(), row.lower()));
+  }
+  using boost::numeric::sqrt;
+  const Interval lambda = (n == 1 ? a : (a + c) / 2.0 - sqrt(boost::numeric::square((c - a) / 2.0) + b2)) - Interval(up(rho));
+  const double scale = lambda.lower() >= 0.0 ? (Interval(1.0) / (Interval(1.0) + Interval(delta))).lower()
+                                             : (Interval(1.0) / (Interval(1.0) - Interval(delta))).upper();
+  return (Interval(lambda.lower()) * Interval(scale) - Interval(by_entry ? 0.0 : X.remainder)).lower();
+}
+
+std::vector<Taylor> product(const std::vector<Taylor>& A, const std::vector<Taylor>& B, int rows, int inner, int cols) {
+  std::vector<Taylor> C(static_cast<std::size_t>(rows * cols));
+  for (int i = 0; i < rows; ++i)
+    for (int j = 0; j < cols; ++j) {
+      Taylor sum;
+      for (int k = 0; k < inner; ++k) sum += A[i * inner + k] * B[k * cols + j];
+      C[i * cols + j] = sum;
+    }
+  return C;
+}
+
+double frobenius_upper(const std::vector<Taylor>& X) {
+  double squares = 0.0;
+  for (const Taylor& x : X) {
+    const double magnitude = up(std::abs(x.c) + x.radius());
+    squares += magnitude * magnitude;
+  }
+  return up(std::sqrt(up(squares)));
+}
+
+namespace {
+
+// K ≈ L⁻¹ with M's centre = L Lᵀ; empty when the centre is not positive definite.
+Eigen::MatrixXd inverse_cholesky_factor(const std::vector<Taylor>& M, int n) {
+  Eigen::MatrixXd centre(n, n);
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) centre(i, j) = 0.5 * (M[i * n + j].c + M[j * n + i].c);
+  const Eigen::LLT<Eigen::MatrixXd> llt(centre);
+  if (llt.info() != Eigen::Success) return {};
+  const Eigen::MatrixXd L = llt.matrixL();
+  return L.triangularView<Eigen::Lower>().solve(Eigen::MatrixXd::Identity(n, n));
+}
+
+// K X (K a double matrix) as forms.
+std::vector<Taylor> left_multiply(const Eigen::MatrixXd& K, const std::vector<Taylor>& X, int n) {
+  std::vector<Taylor> Y(static_cast<std::size_t>(K.rows() * n));
+  for (Eigen::Index i = 0; i < K.rows(); ++i)
+    for (int j = 0; j < n; ++j) {
+      Taylor sum;
+      for (Eigen::Index k = 0; k < K.cols(); ++k)
+        if (K(i, k) != 0.0) sum += K(i, k) * X[k * n + j];
+      Y[i * n + j] = sum;
+    }
+  return Y;
+}
+
+std::vector<Taylor> transpose(const std::vector<Taylor>& X, int n) {
+  std::vector<Taylor> Y(X.size());
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) Y[j * n + i] = X[i * n + j];
+  return Y;
+}
+
+}  // namespace
+
+TaylorInverse inverse(const std::vector<Taylor>& M, int n, int symbols) {
+  TaylorInverse result;
+  const Eigen::MatrixXd K = inverse_cholesky_factor(M, n);
+  if (K.size() == 0) return result;
+  // Y = K M Kᵀ = K (K M)ᵀ (M symmetric), E = Y - I.
+  std::vector<Taylor> E = left_multiply(K, transpose(left_multiply(K, M, n), n), n);
+  for (int i = 0; i < n; ++i) E[i * n + i] = E[i * n + i] - 1.0;
+  const double eta = norm_upper(taylor_matrix(E.data(), n, n, symbols), 0.0);
+  if (!(eta < 1.0)) return result;
+  // Kᵀ (I - E + E²) K.
+  const std::vector<Taylor> E2 = product(E, E, n, n, n);
+  std::vector<Taylor> Z(E.size());
+  for (std::size_t i = 0; i < E.size(); ++i) Z[i] = E2[i] - E[i];
+  for (int i = 0; i < n; ++i) Z[i * n + i] = Z[i * n + i] + 1.0;
+  const Eigen::MatrixXd Kt = K.transpose();
+  result.entries = left_multiply(Kt, transpose(left_multiply(Kt, transpose(Z, n), n), n), n);
+  // Kᵀ E³ (I + E)⁻¹ K = (E K)ᵀ · E (I + E)⁻¹ · (E K), and ||E (I + E)⁻¹|| <= η / (1 - η) for the symmetric E: the tail
+  // is ||E K||² η / (1 - η), which sees that E K is small where M varies only in its heavy directions (||E K|| <= η ||K||).
+  const std::vector<Taylor> EK = transpose(left_multiply(K, E, n), n);  // (K E)ᵀ = E K
+  const double EK_norm = norm_upper(taylor_matrix(EK.data(), n, n, symbols), 0.0);
+  const UpwardRounding upward;
+  const Interval e(eta);
+  result.tail = (Interval(EK_norm) * Interval(EK_norm) * e / (Interval(1.0) - e)).upper();
+  result.proven = true;
+  return result;
+}
+
+}  // namespace obsgain
