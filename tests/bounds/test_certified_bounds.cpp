@@ -295,38 +295,35 @@ void expect_same_bracket(const obsgain::BoundBracket& a, const obsgain::BoundBra
 
 // A search stopped mid-way (here its progress report throws, as Ctrl-C does; a killed job stops the same way, between
 // two checkpoints) leaves its checkpoint; resumed from it, the searches end with the brackets of a run never stopped,
-// to the bit, and those contain the dense grid's maxima. A checkpoint of another request is refused.
+// to the bit. A checkpoint of another request is refused. (A six-joint arm with a budget of a few seconds: every
+// search of the three-joint arm now ends before its first progress report, after a second.)
 TEST(ArmBrackets, ResumedSearchesEndAsSearchesNeverStopped) {
-  const obsgain::Model arm = obsgain::load_robot({examples + "/arm3.urdf"});
+  const obsgain::Model arm = obsgain::load_robot({examples + "/arm6.urdf"});
   const obsgain::BoundReport numeric = light_search(arm);
   obsgain::CertifiedOptions options;
-  options.budget_seconds = 0.0;  // until the gap
+  options.budget_seconds = 4.0;
   const obsgain::CertifiedBounds whole = *obsgain::certify_bounds(arm, numeric, options);
-  const std::string path = ::testing::TempDir() + "arm3.checkpoint";
+  const std::string path = ::testing::TempDir() + "arm6.checkpoint";
   obsgain::CertifiedOptions stopped = options;
   stopped.journal = std::make_shared<obsgain::SearchJournal>(path, false);
   stopped.checkpoint_seconds = 0.2;
   stopped.progress = [](const obsgain::SearchProgress& p) {
-    if (std::string(p.bound) == "M0") throw std::runtime_error("stopped");
+    if (std::string(p.bound) == "L_joint") throw std::runtime_error("stopped");
   };
   EXPECT_THROW(obsgain::certify_bounds(arm, numeric, stopped), std::runtime_error);
 
   obsgain::CertifiedOptions resumed = options;
   resumed.journal = std::make_shared<obsgain::SearchJournal>(path, true);
   const std::string request = obsgain::search_request(arm, numeric.velocity_bounds, options);
-  ASSERT_TRUE(resumed.journal->finished("L_joint", request).has_value());
-  const obsgain::SearchState* state = resumed.journal->state("M0", request);
+  const obsgain::SearchState* state = resumed.journal->state("L_joint", request);
   ASSERT_NE(state, nullptr);
-  EXPECT_GT(state->evaluated, 1000);  // M0 had run for a second
+  EXPECT_GT(state->evaluated, 100);  // L_joint had run for a second
   EXPECT_GT(state->boxes.size(), 10u);
   const obsgain::CertifiedBounds again = *obsgain::certify_bounds(arm, numeric, resumed);
   expect_same_bracket(again.L_joint, whole.L_joint);
   expect_same_bracket(again.M0, whole.M0);
   expect_same_bracket(again.B, whole.B);
-  const GridMaxima grid = arm3_grid(arm);
-  EXPECT_GE(again.M0.upper, grid.M0);
-  EXPECT_GE(again.L_joint.upper, grid.L);
-  EXPECT_LE(again.M0.upper - again.M0.lower, 1e-6 * again.M0.upper);
+  EXPECT_GE(again.L_joint.upper, numeric.L_joint.value);
 
   obsgain::CertifiedOptions other = options;
   other.relative_gap = 1e-3;

@@ -1,7 +1,7 @@
 // What the branch and bound asks of one box of the searched joints: proven upper bounds of M0 = sup ||M⁻¹||,
 // B = sup ||J(q, w)|| and L_joint = sup ||M⁻¹(J(q, w) D + F)|| over the box (w over the velocity box's vertices, D
-// over the saturation patterns), from the model's dynamics on affine forms; and how much splitting each side
-// would tighten them.
+// over the saturation patterns), from the model's dynamics on second-order Taylor forms; and how much splitting
+// each side would tighten them.
 #pragma once
 
 #include "obsgain/bounds/branch_and_bound.hpp"
@@ -19,10 +19,10 @@ namespace obsgain {
 // box: seconds of wall time on the reference machine (two cores like the suite's), fitted to timings of each step
 // on n joints of which m are searched (docs/theory.md, "The budget").
 struct BoxCosts {
-  double inertia;     // M over the box as affine forms
-  double tensors;     // M, the Christoffel tensors and M⁻¹ over the box
+  double inertia;     // M over the box as Taylor forms, and its derivatives on intervals
+  double tensors;     // M with its derivatives, the Christoffel tensors, M⁻¹ and M⁻¹J_j over the box
   double refinement;  // one fine norm or eigenvalue bound
-  double choice;      // one vertex or pattern's cheap bound
+  double choice;      // one vertex or pattern's cheap bound, or its centre's Cholesky test
 };
 BoxCosts box_costs(int n, int m);
 

@@ -1,7 +1,7 @@
 // Certified brackets [lower, upper] for M0, B and L_joint: a deterministic best-first branch and bound over the
-// searched joints, on all cores, with the model's dynamics evaluated on affine forms over each box. `lower` is a
-// value attained at a point; `upper` provably bounds the supremum (rounding bounded throughout, exact vertex
-// reduction in v and D, norm bounds whose excess shrinks quadratically with the box; docs/theory.md).
+// searched joints, on all cores, with the model's dynamics evaluated on second-order Taylor forms over each box.
+// `lower` is a value attained at a point; `upper` provably bounds the supremum (rounding bounded throughout, exact
+// vertex reduction in v and D, norm bounds that keep the sign of the second-order term; docs/theory.md).
 #pragma once
 
 #include "obsgain/bounds/bounds.hpp"

@@ -1,5 +1,5 @@
 // The dynamics of a serial chain (serial_chain.hpp) as templates on the scalar: the same code runs on double
-// (design, simulation, the real-time observer), on intervals, on affine forms and on forward-mode duals of
+// (design, simulation, the real-time observer), on intervals, on Taylor forms and on forward-mode duals of
 // them (certified bounds). Every algorithm works in body frames with the rotations kept factored (below).
 //   chain_mass_matrix       M(q) by the composite-rigid-body algorithm (one pass, O(n²) frame changes)
 //   chain_forces            τ = M(q) q'' + B(q; x, y) [+ g(q)] by a bilinear recursive Newton–Euler pass:

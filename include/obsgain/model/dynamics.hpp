@@ -1,5 +1,5 @@
 // The dynamics of any Model, computed from its structure: as templates on the scalar (what the certified bounds
-// evaluate on intervals and affine forms), and in double for design, simulation and the real-time observer.
+// evaluate on intervals and Taylor forms), and in double for design, simulation and the real-time observer.
 // The double functions write into caller-owned storage and allocate nothing (the observer's update relies on it).
 #pragma once
 

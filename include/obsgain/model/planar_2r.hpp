@@ -1,6 +1,6 @@
 // The lumped planar two-link family of the paper (Pendubot, Acrobot, fully actuated two-link arms) as data,
 // parameterised by π1..π5 (Zhang & Tarn), and its dynamics as templates on the scalar: the same code runs on
-// double, on intervals and on affine forms.
+// double, on intervals and on Taylor forms.
 #pragma once
 
 #include <Eigen/Core>
