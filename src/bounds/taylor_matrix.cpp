@@ -433,8 +433,9 @@ TaylorInverse inverse(const std::vector<Taylor>& M, int n, int symbols) {
   result.entries = left_multiply(Kt, transpose(left_multiply(Kt, transpose(Z, n), n), n), n);
   // Kᵀ E³ (I + E)⁻¹ K = (E K)ᵀ · E (I + E)⁻¹ · (E K), and ||E (I + E)⁻¹|| <= η / (1 - η) for the symmetric E: the tail
   // is ||E K||² η / (1 - η), which sees that E K is small where M varies only in its heavy directions (||E K|| <= η ||K||).
-  const std::vector<Taylor> EK = transpose(left_multiply(K, E, n), n);  // (K E)ᵀ = E K
-  const double EK_norm = norm_upper(taylor_matrix(EK.data(), n, n, symbols), 0.0);
+  // ||E K|| = ||(E K)ᵀ|| = ||Kᵀ E|| for the symmetric E that every member of the forms is.
+  const std::vector<Taylor> KtE = left_multiply(K.transpose(), E, n);
+  const double EK_norm = norm_upper(taylor_matrix(KtE.data(), n, n, symbols), 0.0);
   const UpwardRounding upward;
   const Interval e(eta);
   result.tail = (Interval(EK_norm) * Interval(EK_norm) * e / (Interval(1.0) - e)).upper();

@@ -176,6 +176,46 @@ TEST_P(TaylorDynamics, EncloseMAndTheCoriolisTensorsAtRandomPointsOfRandomBoxes)
   }
 }
 
+// M(q)⁻¹ at random points of random boxes lies within the inverse's forms plus its tail: ||M⁻¹ - P(ε)||₂ <=
+// ||entry remainders||_F + tail (the tail's factor is ||E K|| = ||Kᵀ E||, K triangular).
+TEST_P(TaylorDynamics, InverseEnclosesTheInverseAtRandomPoints) {
+  const obsgain::Model model = obsgain::load_robot({examples + "/" + GetParam()});
+  const int n = model.dof();
+  const obsgain::JointSearch s = obsgain::joint_search(model, obsgain::configuration_joints(model));
+  const auto m = s.joints.size();
+  std::mt19937_64 rng(8);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0), angle(-3.0, 3.0), width(0.0, 1.0);
+  int proven = 0;
+  for (int trial = 0; trial < 20; ++trial) {
+    Eigen::VectorXd centre(n);
+    for (int i = 0; i < n; ++i) centre(i) = angle(rng);
+    std::vector<double> radius(m);
+    for (auto& r : radius) r = 0.15 * width(rng);
+    const BoxForms f = box_forms(model, s, centre, radius);
+    const obsgain::UpwardRounding upward;
+    const obsgain::TaylorInverse inverse = obsgain::inverse(f.M, n, static_cast<int>(m));
+    if (!inverse.proven) continue;
+    ++proven;
+    double remainders = 0.0;
+    for (const obsgain::Taylor& x : inverse.entries) remainders += x.r * x.r;
+    const double allowed = std::sqrt(remainders) + inverse.tail;
+    for (int point = 0; point < 20; ++point) {
+      std::vector<double> e(m);
+      Eigen::VectorXd q = centre;
+      for (std::size_t k = 0; k < m; ++k) {
+        e[k] = unit(rng);
+        q(s.joints[k]) += e[k] * radius[k];
+      }
+      Eigen::MatrixXd M(n, n), P(n, n);
+      obsgain::mass_matrix(model, q, M);
+      for (int i = 0; i < n * n; ++i) P(i / n, i % n) = polynomial_part(inverse.entries[i], e);
+      const Eigen::MatrixXd inverse_M = M.inverse();
+      EXPECT_LE((inverse_M - P).jacobiSvd().singularValues()(0), allowed + 1e-10 * inverse_M.norm()) << GetParam();
+    }
+  }
+  EXPECT_GT(proven, 10) << GetParam();
+}
+
 // The forms' remainder is third order: halving the box divides it by eight. The exponent is fitted over four widths
 // at a fixed centre (about 3 for every model; a first-order form, affine arithmetic, gives 2).
 TEST_P(TaylorDynamics, RemaindersShrinkAsTheCubeOfTheWidth) {
