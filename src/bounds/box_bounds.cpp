@@ -168,10 +168,12 @@ class PatternColumns {
   }
   // Pattern `bits` (bit j: d_j = 1): the centre's Frobenius norm, and the variation. Each a sum of norms rounded up
   // (relative errors of a few ulps per norm, covered by the inflation).
-  double centre(unsigned bits) const { return up(chosen(bits).row(0).norm()); }
-  double variation(unsigned bits) const {
+  struct Sizes {
+    double centre, variation;
+  };
+  Sizes pattern(unsigned bits) const {
     const Eigen::MatrixXd c = chosen(bits);
-    return up(c.bottomRows(c.rows() - 1).rowwise().norm().sum() + remainder_);
+    return {up(c.row(0).norm()), up(c.bottomRows(c.rows() - 1).rowwise().norm().sum() + remainder_)};
   }
 
  private:
@@ -321,8 +323,8 @@ double choices_upper(const LipschitzTerms& t, const BoxDynamics& d, const Veloci
     const PatternColumns columns(Aw.back(), t.R);
     const unsigned full = (1u << d.n) - 1;
     for (unsigned bits = v.frictionless ? full : 0u; bits <= full; ++bits) {
-      const double variation = columns.variation(bits);
-      choices.push_back({(columns.centre(bits) + variation) * kTaylorInflation, variation, index, bits});
+      const PatternColumns::Sizes sizes = columns.pattern(bits);
+      choices.push_back({(sizes.centre + sizes.variation) * kTaylorInflation, sizes.variation, index, bits});
     }
   }
   work += static_cast<double>(choices.size()) * v.costs.choice;

@@ -36,6 +36,17 @@ double quadratic_maximum(double l, double q) {
   return up(std::max(0.0, value) * (1.0 + 8.0 * kTaylorRoundoff));
 }
 
+// Adds the coefficient of ε_k ε_l to the symmetric Q of εᵀQε: all of it on the diagonal, half to each side off it.
+void add_pair_coefficient(Eigen::MatrixXd& Q, const std::pair<int, int>& pair, double coefficient) {
+  const auto [k, l] = pair;
+  if (k == l) {
+    Q(k, k) += coefficient;
+  } else {
+    Q(k, l) += 0.5 * coefficient;
+    Q(l, k) += 0.5 * coefficient;
+  }
+}
+
 // An upper bound of max over the box of Σ_k l_k ε_k + Σ_{k,l} Q_kl ε_k ε_l (Q symmetric): each symbol's own
 // quadratic maximised exactly, the cross terms by their moduli. At a maximum the linear terms vanish and the
 // diagonal is negative: the bound is then about the cross terms, not the curvature's size.
@@ -220,15 +231,8 @@ double top_gram_upper(const BasisTerms& t, double s0, double h0) {
   Eigen::MatrixXd Q = g0.transpose() * g0;
   double curvature_abs = 0.0;
   for (std::size_t p = 0; p < pairs.size(); ++p) {
-    const double coefficient = 2.0 * c0.dot(t.H[p].col(0));
+    add_pair_coefficient(Q, pairs[p], 2.0 * c0.dot(t.H[p].col(0)));
     curvature_abs += c0.cwiseAbs().dot(t.H[p].col(0).cwiseAbs());
-    const auto [k, j] = pairs[p];
-    if (k == j) {
-      Q(k, k) += coefficient;
-    } else {
-      Q(k, j) += 0.5 * coefficient;
-      Q(j, k) += 0.5 * coefficient;
-    }
   }
   const UpwardRounding upward;
   const double sigma2 = c0.squaredNorm();
@@ -292,16 +296,7 @@ double top_entry_lower(double centre, const Eigen::VectorXd& slopes, const std::
                        int m) {
   const auto pairs = symbol_pairs(m);
   Eigen::MatrixXd Q = Eigen::MatrixXd::Zero(m, m);
-  for (std::size_t p = 0; p < pairs.size(); ++p) {
-    const auto [k, j] = pairs[p];
-    const double coefficient = -curvatures[p](0, 0);
-    if (k == j) {
-      Q(k, k) += coefficient;
-    } else {
-      Q(k, j) += 0.5 * coefficient;
-      Q(j, k) += 0.5 * coefficient;
-    }
-  }
+  for (std::size_t p = 0; p < pairs.size(); ++p) add_pair_coefficient(Q, pairs[p], -curvatures[p](0, 0));
   const UpwardRounding upward;
   return -(-centre + quadratic_polynomial_upper(-slopes, Q));
 }

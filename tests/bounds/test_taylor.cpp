@@ -136,6 +136,33 @@ BoxForms box_forms(const obsgain::Model& model, const obsgain::JointSearch& s, c
   return f;
 }
 
+// A random box of the searched joints (centre in (-3, 3), half-widths up to `scale`) and random points in it:
+// their symbols ε and configurations q.
+struct RandomBox {
+  Eigen::VectorXd centre;
+  std::vector<double> radius;
+};
+RandomBox random_box(const obsgain::JointSearch& s, int n, double scale, std::mt19937_64& rng) {
+  std::uniform_real_distribution<double> angle(-3.0, 3.0), width(0.0, 1.0);
+  RandomBox box{Eigen::VectorXd(n), std::vector<double>(s.joints.size())};
+  for (int i = 0; i < n; ++i) box.centre(i) = angle(rng);
+  for (auto& r : box.radius) r = scale * width(rng);
+  return box;
+}
+struct RandomPoint {
+  std::vector<double> epsilon;
+  Eigen::VectorXd q;
+};
+RandomPoint random_point(const obsgain::JointSearch& s, const RandomBox& box, std::mt19937_64& rng) {
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  RandomPoint point{std::vector<double>(s.joints.size()), box.centre};
+  for (std::size_t k = 0; k < s.joints.size(); ++k) {
+    point.epsilon[k] = unit(rng);
+    point.q(s.joints[k]) += point.epsilon[k] * box.radius[k];
+  }
+  return point;
+}
+
 class TaylorDynamics : public ::testing::TestWithParam<const char*> {};
 
 // Random boxes (narrow and wide), random points inside: M(q) and N_i(q) in double (N by the Newton–Euler pass, an
@@ -145,22 +172,12 @@ TEST_P(TaylorDynamics, EncloseMAndTheCoriolisTensorsAtRandomPointsOfRandomBoxes)
   const obsgain::Model model = obsgain::load_robot({examples + "/" + GetParam()});
   const int n = model.dof();
   const obsgain::JointSearch s = obsgain::joint_search(model, obsgain::configuration_joints(model));
-  const auto m = s.joints.size();
   std::mt19937_64 rng(3);
-  std::uniform_real_distribution<double> unit(-1.0, 1.0), angle(-3.0, 3.0), width(0.0, 1.0);
   for (int trial = 0; trial < 10; ++trial) {
-    Eigen::VectorXd centre(n);
-    for (int i = 0; i < n; ++i) centre(i) = angle(rng);
-    std::vector<double> radius(m);
-    for (auto& r : radius) r = (trial < 4 ? 0.05 : trial < 7 ? 1.0 : 3.2) * width(rng);
-    const BoxForms f = box_forms(model, s, centre, radius);
+    const RandomBox box = random_box(s, n, trial < 4 ? 0.05 : trial < 7 ? 1.0 : 3.2, rng);
+    const BoxForms f = box_forms(model, s, box.centre, box.radius);
     for (int point = 0; point < 10; ++point) {
-      std::vector<double> e(m);
-      Eigen::VectorXd q = centre;
-      for (std::size_t k = 0; k < m; ++k) {
-        e[k] = unit(rng);
-        q(s.joints[k]) += e[k] * radius[k];
-      }
+      const auto [e, q] = random_point(s, box, rng);
       Eigen::MatrixXd M(n, n);
       obsgain::mass_matrix(model, q, M);
       std::vector<Eigen::MatrixXd> N;
@@ -184,14 +201,10 @@ TEST_P(TaylorDynamics, InverseEnclosesTheInverseAtRandomPoints) {
   const obsgain::JointSearch s = obsgain::joint_search(model, obsgain::configuration_joints(model));
   const auto m = s.joints.size();
   std::mt19937_64 rng(8);
-  std::uniform_real_distribution<double> unit(-1.0, 1.0), angle(-3.0, 3.0), width(0.0, 1.0);
   int proven = 0;
   for (int trial = 0; trial < 20; ++trial) {
-    Eigen::VectorXd centre(n);
-    for (int i = 0; i < n; ++i) centre(i) = angle(rng);
-    std::vector<double> radius(m);
-    for (auto& r : radius) r = 0.15 * width(rng);
-    const BoxForms f = box_forms(model, s, centre, radius);
+    const RandomBox box = random_box(s, n, 0.15, rng);
+    const BoxForms f = box_forms(model, s, box.centre, box.radius);
     const obsgain::UpwardRounding upward;
     const obsgain::TaylorInverse inverse = obsgain::inverse(f.M, n, static_cast<int>(m));
     if (!inverse.proven) continue;
@@ -200,12 +213,7 @@ TEST_P(TaylorDynamics, InverseEnclosesTheInverseAtRandomPoints) {
     for (const obsgain::Taylor& x : inverse.entries) remainders += x.r * x.r;
     const double allowed = std::sqrt(remainders) + inverse.tail;
     for (int point = 0; point < 20; ++point) {
-      std::vector<double> e(m);
-      Eigen::VectorXd q = centre;
-      for (std::size_t k = 0; k < m; ++k) {
-        e[k] = unit(rng);
-        q(s.joints[k]) += e[k] * radius[k];
-      }
+      const auto [e, q] = random_point(s, box, rng);
       Eigen::MatrixXd M(n, n), P(n, n);
       obsgain::mass_matrix(model, q, M);
       for (int i = 0; i < n * n; ++i) P(i / n, i % n) = polynomial_part(inverse.entries[i], e);
