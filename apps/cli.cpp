@@ -94,11 +94,11 @@ void add_certificate_options(CLI::App& app, DesignArguments& a) {
   app.add_option("--L", a.L, "override the Lipschitz constant (e.g. the paper's 54.01)")
       ->type_name("NUMBER");
   app.add_option("--certificate", a.certificate,
-                 "tight (bounded-real lemma), paper (Theorem 1) or polytopic (one full P over a proven polytope of "
-                 "the perturbation, SDP; falls back to tight when its check fails)")
-      ->check(CLI::IsMember({"tight", "paper", "polytopic"}))
-      ->capture_default_str()
-      ->type_name("tight|paper|polytopic");
+                 "tight (bounded-real lemma), scaled (the same in diagonally scaled coordinates), paper (Theorem 1) or "
+                 "polytopic (one full P over a proven polytope of the perturbation, SDP; falls back when its check "
+                 "fails). Default: scaled where the bounds kept a diagonal scaling with a smaller L, else tight")
+      ->check(CLI::IsMember({"tight", "scaled", "paper", "polytopic"}))
+      ->type_name("tight|scaled|paper|polytopic");
   app.add_option("--polytope-cells", a.polytope_cells,
                  "polytopic certificate: cells covering the joint domain (default 32; more: tighter and slower)")
       ->type_name("N");
@@ -238,9 +238,7 @@ DesignRequest to_design_request(const DesignArguments& a, const Model& model) {
     };
   if (!a.quiet && isatty(STDERR_FILENO) != 0) o.certified_bounds.progress = print_search_progress;
   o.lipschitz = a.lipschitz == "paper" ? LipschitzKind::paper : LipschitzKind::joint;
-  o.certificate = a.certificate == "paper"       ? CertificateKind::paper
-                  : a.certificate == "polytopic" ? CertificateKind::polytopic
-                                                 : CertificateKind::tight;
+  if (!a.certificate.empty()) o.certificate = certificate_kind(a.certificate);
   if (a.polytope_cells) o.polytope.cells = *a.polytope_cells;
   o.bound_method = a.bounds == "numeric" ? BoundMethod::numeric : BoundMethod::certified;
   if (!a.L.empty()) o.L_override = parse_number("L", a.L);

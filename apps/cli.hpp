@@ -21,7 +21,7 @@ struct DesignArguments {
   std::string objective = "rate";
   std::string threads = "0";
   std::string lipschitz = "joint";
-  std::string certificate = "tight";
+  std::string certificate;  // empty: tight, or scaled where it is better
   std::optional<int> polytope_cells;
   std::string bounds = "certified";
   bool optimize_shape = false;

@@ -223,20 +223,22 @@ double coriolis_jacobian_maximum(const Model& model, const Eigen::VectorXd& q, c
 // Choices for L_joint: vertex index in the low n bits, saturation pattern in the next n bits. With
 // X = A D + R, A = M⁻¹J, R = M⁻¹F: XᵀX = D AᵀA D + D AᵀR + RᵀA D + RᵀR, so each of the 2^n patterns costs
 // O(n²) once the three Gram blocks of a vertex are formed.
+// With a scaling T = diag(t), A and R become T A T⁻¹ and T R T⁻¹ (D is diagonal: T (A D + R) T⁻¹ = T A T⁻¹ D + T R T⁻¹).
 double joint_lipschitz_maximum(const Model& model, const Eigen::VectorXd& q, const Eigen::VectorXd& velocity_bounds,
-                               int& choice) {
+                               const Eigen::VectorXd& scaling, int& choice) {
   const int n = model.dof();
   const unsigned vertex_count = 1u << n;
   const unsigned first_vertex = model.friction.isZero(0.0) ? vertex_count / 2 : 0u;
   std::vector<Eigen::MatrixXd> N;
   coriolis_tensors(model, q, N);
   const Eigen::LLT<Eigen::MatrixXd> llt = factor_inertia(model, q);
-  const Eigen::MatrixXd R = llt.solve(model.friction);
+  const Eigen::VectorXd t = scaling.size() ? scaling : Eigen::VectorXd::Ones(n);
+  const Eigen::MatrixXd R = t.asDiagonal() * llt.solve(model.friction) * t.cwiseInverse().asDiagonal();
   const Eigen::MatrixXd RR = R.transpose() * R;
   LargestSingularValue largest(n);
   Eigen::MatrixXd A(n, n), AA(n, n), AR(n, n), G(n, n);
   for (unsigned c = first_vertex; c < vertex_count; ++c) {
-    A = llt.solve(coriolis_jacobian(N, vertex(velocity_bounds, c)));
+    A = t.asDiagonal() * llt.solve(coriolis_jacobian(N, vertex(velocity_bounds, c))) * t.cwiseInverse().asDiagonal();
     AA.noalias() = A.transpose() * A;
     AR.noalias() = A.transpose() * R;
     // Full patterns first: they usually win, and a high running maximum prunes the rest.
@@ -252,6 +254,88 @@ double joint_lipschitz_maximum(const Model& model, const Eigen::VectorXd& q, con
     }
   }
   return largest.value();
+}
+
+// The search of L_joint (scaling empty) or of L_T, with the maximising vertex and pattern.
+BoundMaximum lipschitz_search(const Model& model, const Eigen::VectorXd& velocity_bounds, const Eigen::VectorXd& scaling,
+                              const BoundOptions& options) {
+  const int n = model.dof();
+  const unsigned vertex_count = 1u << n;
+  BoundProblem lj;
+  lj.all_choices = [&](const Eigen::VectorXd& q, int& choice) {
+    return joint_lipschitz_maximum(model, q, velocity_bounds, scaling, choice);
+  };
+  lj.one_choice = [&](const Eigen::VectorXd& q, int choice) {
+    const auto c = static_cast<unsigned>(choice);
+    return joint_lipschitz_norm(model, q, vertex(velocity_bounds, c & (vertex_count - 1)), pattern(n, c >> n), scaling);
+  };
+  BoundMaximum result = search(model, lj, options);
+  int choice = 0;
+  lj.all_choices(result.q, choice);
+  const auto c = static_cast<unsigned>(choice);
+  result.velocity_vertex = vertex(velocity_bounds, c & (vertex_count - 1));
+  result.saturation_pattern = pattern(n, c >> n);
+  return result;
+}
+
+// Φ = M⁻¹(J(q, w) D + F) of one choice (vertex in the low n bits, pattern in the next n).
+Eigen::MatrixXd lipschitz_matrix(const Model& model, const Eigen::VectorXd& q, const Eigen::VectorXd& velocity_bounds,
+                                 int choice) {
+  const int n = model.dof();
+  const auto c = static_cast<unsigned>(choice);
+  std::vector<Eigen::MatrixXd> N;
+  coriolis_tensors(model, q, N);
+  const Eigen::MatrixXd X = coriolis_jacobian(N, vertex(velocity_bounds, c & ((1u << n) - 1))) * pattern(n, c >> n).asDiagonal();
+  return factor_inertia(model, q).solve(X + model.friction);
+}
+
+// The T that minimises the maximum of ||T Φ T⁻¹|| over the configurations, every vertex and pattern at each: T is
+// chosen on the maximising matrices found so far, and each configuration's maximising choice under that T joins
+// them, until none beats the maximum T was chosen on.
+Eigen::VectorXd scaling_on(const Model& model, const Eigen::VectorXd& V, const std::vector<Eigen::VectorXd>& configurations,
+                           double& chosen_on) {
+  std::vector<Eigen::MatrixXd> matrices;
+  Eigen::VectorXd t = Eigen::VectorXd::Ones(model.dof());
+  for (int iteration = 0; iteration < 20; ++iteration) {
+    bool added = false;
+    for (const Eigen::VectorXd& q : configurations) {
+      int choice = 0;
+      const double value = joint_lipschitz_maximum(model, q, V, t, choice);
+      if (matrices.empty() || value > chosen_on * (1.0 + 1e-9)) {
+        matrices.push_back(lipschitz_matrix(model, q, V, choice));
+        added = true;
+      }
+      chosen_on = std::max(chosen_on, value);
+    }
+    if (!added) break;
+    t = best_diagonal_scaling(matrices);
+    chosen_on = 0.0;
+    for (const Eigen::MatrixXd& Phi : matrices)
+      chosen_on = std::max(chosen_on, (t.asDiagonal() * Phi * t.cwiseInverse().asDiagonal()).operatorNorm());
+  }
+  return t;
+}
+
+// Diagonal scaling: T from the worst configurations known (the three searches' maximisers), then L_T searched; its
+// maximiser joins them and T is chosen again, until L_T's search finds nothing above what T was chosen on. Kept
+// when L_T is scaling_min_gain below L_joint. Every T gives L_T >= the maximum over those configurations, and T
+// minimises that maximum (a convex function of log T): once it is not below the threshold, no T is.
+void choose_scaling(const Model& model, BoundReport& report, const BoundOptions& options) {
+  const Eigen::VectorXd& V = report.velocity_bounds;
+  std::vector<Eigen::VectorXd> worst{report.L_joint.q, report.M0.q, report.B.q};
+  const double keep = (1.0 - options.scaling_min_gain) * report.L_joint.value;
+  for (int round = 0; round < options.scaling_rounds; ++round) {
+    double chosen_on = 0.0;
+    const Eigen::VectorXd t = scaling_on(model, V, worst, chosen_on);
+    if (chosen_on >= keep) return;
+    const BoundMaximum L = lipschitz_search(model, V, t, options);
+    if (L.value < keep && (!report.scaled() || L.value < report.L_scaled.value)) {
+      report.scaling = t;
+      report.L_scaled = L;
+    }
+    if (L.value <= chosen_on * (1.0 + 1e-3)) return;
+    worst.push_back(L.q);
+  }
 }
 
 }  // namespace
@@ -275,11 +359,13 @@ double coriolis_jacobian_norm(const Model& model, const Eigen::VectorXd& q, cons
 }
 
 double joint_lipschitz_norm(const Model& model, const Eigen::VectorXd& q, const Eigen::VectorXd& w,
-                            const Eigen::VectorXd& saturation_pattern) {
+                            const Eigen::VectorXd& saturation_pattern, const Eigen::VectorXd& scaling) {
   std::vector<Eigen::MatrixXd> N;
   coriolis_tensors(model, q, N);
   const Eigen::MatrixXd X = coriolis_jacobian(N, w) * saturation_pattern.asDiagonal() + model.friction;
-  return factor_inertia(model, q).solve(X).operatorNorm();
+  const Eigen::MatrixXd Phi = factor_inertia(model, q).solve(X);
+  if (scaling.size() == 0) return Phi.operatorNorm();
+  return (scaling.asDiagonal() * Phi * scaling.cwiseInverse().asDiagonal()).operatorNorm();
 }
 
 double max_coriolis_jacobian_norm(const Model& model, const Eigen::VectorXd& q, const Eigen::VectorXd& velocity_bounds) {
@@ -287,16 +373,35 @@ double max_coriolis_jacobian_norm(const Model& model, const Eigen::VectorXd& q, 
   return coriolis_jacobian_maximum(model, q, velocity_bounds, choice);
 }
 
-double max_joint_lipschitz_norm(const Model& model, const Eigen::VectorXd& q, const Eigen::VectorXd& velocity_bounds) {
+double max_joint_lipschitz_norm(const Model& model, const Eigen::VectorXd& q, const Eigen::VectorXd& velocity_bounds,
+                                const Eigen::VectorXd& scaling) {
   int choice = 0;
-  return joint_lipschitz_maximum(model, q, velocity_bounds, choice);
+  return joint_lipschitz_maximum(model, q, velocity_bounds, scaling, choice);
+}
+
+Eigen::VectorXd best_diagonal_scaling(const std::vector<Eigen::MatrixXd>& matrices) {
+  const auto n = matrices.front().rows();
+  // log t_j for j >= 1 (t_0 = 1: T and cT are the same similarity), within a factor 10³ of the first joint's.
+  const auto scaling = [n](const Eigen::VectorXd& x) {
+    Eigen::VectorXd t = Eigen::VectorXd::Ones(n);
+    t.tail(n - 1) = x.array().exp();
+    return t;
+  };
+  const Objective worst = [&](const Eigen::VectorXd& x) {
+    const Eigen::VectorXd t = scaling(x);
+    double value = 0.0;
+    for (const Eigen::MatrixXd& Phi : matrices)
+      value = std::max(value, (t.asDiagonal() * Phi * t.cwiseInverse().asDiagonal()).operatorNorm());
+    return value;
+  };
+  const Eigen::VectorXd bound = Eigen::VectorXd::Constant(n - 1, std::log(1e3));
+  return scaling(minimize_nonsmooth(worst, Eigen::VectorXd::Zero(n - 1), -bound, bound, 1e-4, 300 * static_cast<int>(n - 1)).x);
 }
 
 BoundReport compute_bounds(const Model& model, const Eigen::VectorXd& velocity_bounds, const BoundOptions& options) {
   validate_velocity_bounds(model, velocity_bounds);
   const auto start = std::chrono::steady_clock::now();
   const int n = model.dof();
-  const unsigned vertex_count = 1u << n;
 
   BoundReport report;
   report.velocity_bounds = velocity_bounds;
@@ -323,19 +428,8 @@ BoundReport compute_bounds(const Model& model, const Eigen::VectorXd& velocity_b
   }
 
   BoundProblem lj;
-  lj.all_choices = [&](const Eigen::VectorXd& q, int& choice) { return joint_lipschitz_maximum(model, q, velocity_bounds, choice); };
-  lj.one_choice = [&](const Eigen::VectorXd& q, int choice) {
-    const auto c = static_cast<unsigned>(choice);
-    return joint_lipschitz_norm(model, q, vertex(velocity_bounds, c & (vertex_count - 1)), pattern(n, c >> n));
-  };
-  report.L_joint = search(model, lj, options);
-  {
-    int choice = 0;
-    lj.all_choices(report.L_joint.q, choice);
-    const auto c = static_cast<unsigned>(choice);
-    report.L_joint.velocity_vertex = vertex(velocity_bounds, c & (vertex_count - 1));
-    report.L_joint.saturation_pattern = pattern(n, c >> n);
-  }
+  report.L_joint = lipschitz_search(model, velocity_bounds, {}, options);
+  if (options.diagonal_scaling && n > 1 && n <= options.scaling_max_dof) choose_scaling(model, report, options);
 
   report.L_paper = report.M0.value * (report.B.value + report.F_norm);
   report.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -233,10 +233,22 @@ BoxCosts box_costs(int n, int m) {
   return {core.inertia / 2, core.tensors / 2, core.refinement / 2, core.choice / 2};
 }
 
-BoxBounds::BoxBounds(const Model& model, const JointSearch& search, const Eigen::VectorXd& velocity_bounds)
+DiagonalScaling diagonal_scaling(const Eigen::VectorXd& t) {
+  DiagonalScaling s{t, t.cwiseInverse(), 0.0, 0.0};
+  const UpwardRounding upward;
+  for (Eigen::Index k = 0; k < t.size(); ++k)
+    s.restore = std::max(s.restore, (Interval(1.0) / (Interval(s.columns(k)) * Interval(t(k)))).upper());
+  s.stretch = (Interval(t.maxCoeff()) * Interval(s.columns.maxCoeff())).upper();
+  return s;
+}
+
+BoxBounds::BoxBounds(const Model& model, const JointSearch& search, const Eigen::VectorXd& velocity_bounds,
+                     const Eigen::VectorXd& scaling)
     : model_(model), search_(search), velocity_bounds_(velocity_bounds), vertices_(box_vertices(velocity_bounds)),
       count_(static_cast<unsigned>(vertices_.cols())), half_(count_ / 2), frictionless_(model.friction.isZero(0.0)),
-      costs_(box_costs(model.dof(), static_cast<int>(search.joints.size()))) {}
+      costs_(box_costs(model.dof(), static_cast<int>(search.joints.size()))) {
+  if (scaling.size()) scaling_ = diagonal_scaling(scaling);
+}
 
 BoxBound BoxBounds::inverse_inertia(const std::vector<Interval>& box) const {
   BoxBound bound{kInfinity, {}, costs_.inertia + costs_.refinement};
@@ -271,11 +283,17 @@ struct LipschitzTerms {
   double tail = 0.0;
 };
 
+// With a scaling, the terms are T A_j S and T R S, and the tail's matrix is stretched by at most max t · max s.
 LipschitzTerms lipschitz_terms(const Model& model, const BoxDynamics& d, const std::vector<TaylorMatrix>& J,
-                               const Eigen::VectorXd& velocity_bounds, const TaylorInverse& inverse_M) {
+                               const Eigen::VectorXd& velocity_bounds, const TaylorInverse& inverse_M,
+                               const DiagonalScaling* scaling = nullptr) {
   LipschitzTerms t;
   const auto times_inverse = [&](const std::vector<Taylor>& Y) {
-    return taylor_matrix(product(inverse_M.entries, Y, d.n, d.n, d.n).data(), d.n, d.n, d.m);
+    std::vector<Taylor> X = product(inverse_M.entries, Y, d.n, d.n, d.n);
+    if (scaling)
+      for (int i = 0; i < d.n; ++i)
+        for (int k = 0; k < d.n; ++k) X[i * d.n + k] = (X[i * d.n + k] * scaling->rows(i)) * scaling->columns(k);
+    return taylor_matrix(X.data(), d.n, d.n, d.m);
   };
   for (int j = 0; j < d.n; ++j) t.A.push_back(times_inverse(unit_jacobian(d, j)));
   std::vector<Taylor> F(static_cast<std::size_t>(d.n * d.n));
@@ -283,6 +301,7 @@ LipschitzTerms lipschitz_terms(const Model& model, const BoxDynamics& d, const s
   t.R = times_inverse(F);
   const UpwardRounding upward;
   t.tail = (Interval(inverse_M.tail) * Interval(every_choice_upper(J, velocity_bounds, taylor_matrix(F.data(), d.n, d.n, d.m)))).upper();
+  if (scaling) t.tail = (Interval(t.tail) * Interval(scaling->stretch)).upper();
   return t;
 }
 
@@ -351,34 +370,46 @@ double choices_upper(const LipschitzTerms& t, const BoxDynamics& d, const Veloci
 // L_joint over a box. On a wide box the product M⁻¹ J carries both factors' remainders, and the inertia route
 // (||J|| + ||F||) / λmin(M) can be the tighter: where the cheap bound is far above the value attained, both are
 // taken.
+// With a scaling T, every bound below is of ||T Φ S|| (the inertia route's of ||Φ|| times the stretch), and
+// `restored` turns it into a bound of ||T Φ T⁻¹||.
 BoxBound BoxBounds::joint_lipschitz(const std::vector<Interval>& box, double lower) const {
+  const double restore = scaling_ ? scaling_->restore : 1.0, stretch = scaling_ ? scaling_->stretch : 1.0;
+  const auto restored = [&](BoxBound bound) {
+    if (scaling_) bound.upper = (Interval(bound.upper) * Interval(restore)).upper();
+    return bound;
+  };
+  const auto by_inertia_floor = [&](const BoxDynamics& d, const std::vector<TaylorMatrix>& J) {
+    BoxBound bound = lipschitz_by_inertia_floor(model_, d, J, vertices_, half_, count_);
+    if (scaling_) bound.upper = (Interval(bound.upper) * Interval(stretch)).upper();
+    return bound;
+  };
   const BoxDynamics d = box_dynamics(model_, search_, box, true);
   const std::vector<TaylorMatrix> J = unit_jacobians(d);
   const TaylorInverse inverse_M = inverse(d.M, d.n, d.m);
   const double inertia_route_work = costs_.refinement * (1.0 + count_ - half_);
   if (!inverse_M.proven) {
-    BoxBound bound = lipschitz_by_inertia_floor(model_, d, J, vertices_, half_, count_);
+    BoxBound bound = by_inertia_floor(d, J);
     bound.work = costs_.tensors + inertia_route_work;
-    return bound;
+    return restored(std::move(bound));
   }
-  const LipschitzTerms t = lipschitz_terms(model_, d, J, velocity_bounds_, inverse_M);
+  const LipschitzTerms t = lipschitz_terms(model_, d, J, velocity_bounds_, inverse_M, scaling_ ? &*scaling_ : nullptr);
   const UpwardRounding upward;
   BoxBound bound{every_choice_upper(t.A, velocity_bounds_, t.R) + t.tail, {}, costs_.tensors};
   if (bound.upper <= lower) {  // cannot beat the value attained: no choice needs enumerating
     weigh_sides(linear_combination(t.A, velocity_bounds_, frobenius_uppers(t.A)), d, bound.split_weight);
-    return bound;
+    return restored(std::move(bound));
   }
   double cap = kInfinity;
   if (bound.upper > 2.0 * lower) {
-    BoxBound by_inertia = lipschitz_by_inertia_floor(model_, d, J, vertices_, half_, count_);
+    BoxBound by_inertia = by_inertia_floor(d, J);
     bound.work += inertia_route_work;
-    if (by_inertia.upper <= lower) return {by_inertia.upper, std::move(by_inertia.split_weight), bound.work};
+    if (by_inertia.upper <= lower) return restored({by_inertia.upper, std::move(by_inertia.split_weight), bound.work});
     cap = by_inertia.upper;
   }
   const VelocityChoices choices{vertices_, frictionless_ ? half_ : 0u, count_, frictionless_, costs_};
   const double polynomial = choices_upper(t, d, choices, lower - t.tail, bound.split_weight, bound.work);
   bound.upper = std::min(cap, polynomial + t.tail);
-  return bound;
+  return restored(std::move(bound));
 }
 
 }  // namespace obsgain

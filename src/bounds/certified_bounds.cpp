@@ -101,12 +101,29 @@ std::optional<CertifiedBounds> certify_bounds(const Model& model, const BoundRep
     result.L_joint = search(share, "L_joint", [&](const auto& box, double lower) { return boxes.joint_lipschitz(box, lower); },
                             [&](const Eigen::VectorXd& q) { return max_joint_lipschitz_norm(model, q, V); }, numeric.L_joint.q);
   };
-  if (joint) run_L(0.9);
+  const auto run_L_scaled = [&](double share) {
+    const BoxBounds scaled_boxes(model, s, V, numeric.scaling);
+    const Eigen::VectorXd& t = numeric.scaling;
+    result.L_scaled = journaled_search(
+        options, search_request(model, V, options, t), budget.next(share, "L_scaled"), [&](const BranchAndBoundOptions& o) {
+          return search_joints(s, [&](const auto& box, double lower) { return scaled_boxes.joint_lipschitz(box, lower); },
+                               [&](const Eigen::VectorXd& q) { return max_joint_lipschitz_norm(model, q, V, t); },
+                               numeric.L_scaled.q, o);
+        });
+    budget.spent(*result.L_scaled);
+  };
+  if (joint && numeric.scaled()) {
+    run_L(0.45);
+    run_L_scaled(0.8);
+  } else if (joint) {
+    run_L(0.9);
+  }
   result.M0 = search(joint ? 0.6 : 0.5, "M0", [&](const auto& box, double) { return boxes.inverse_inertia(box); },
                      [&](const Eigen::VectorXd& q) { return inverse_inertia_norm(model, q); }, numeric.M0.q);
   result.B = search(joint ? 1.0 : 0.8, "B", [&](const auto& box, double lower) { return boxes.jacobian(box, lower); },
                     [&](const Eigen::VectorXd& q) { return max_coriolis_jacobian_norm(model, q, V); }, numeric.B.q);
   if (!joint) run_L(1.0);
+  if (!joint && numeric.scaled()) run_L_scaled(1.0);
   return result;
 }
 
@@ -123,6 +140,14 @@ void apply_certified_bounds(BoundReport& report, const CertifiedBounds& certifie
   if (report.L_paper < report.L_joint_bracket.upper) report.L_joint_bracket.upper = report.L_paper;
   report.L_joint.value = report.L_joint_bracket.upper;
   report.wall_seconds += certified.M0.seconds + certified.B.seconds + certified.L_joint.seconds;
+  if (certified.L_scaled) {
+    // ||T Φ T⁻¹|| <= ||T|| ||Φ|| ||T⁻¹||: the proven L_joint, stretched, bounds L_T too.
+    report.L_scaled_bracket = *certified.L_scaled;
+    const double stretched = (Interval(report.L_joint.value) * Interval(diagonal_scaling(report.scaling).stretch)).upper();
+    report.L_scaled_bracket.upper = std::min(report.L_scaled_bracket.upper, stretched);
+    report.L_scaled.value = report.L_scaled_bracket.upper;
+    report.wall_seconds += certified.L_scaled->seconds;
+  }
 }
 
 }  // namespace obsgain

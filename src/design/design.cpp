@@ -71,19 +71,37 @@ CertificateSummary paper_summary(const Design& d, std::optional<double> target, 
   return s;
 }
 
-CertificateSummary tight_summary(const Design& d, std::optional<double> target, std::optional<double> theta) {
+// Diagonal scaling applies to the computed L_joint: not to L_paper, nor to the user's own L.
+bool scalable(const Design& d) { return d.bounds.scaled() && d.L_source == to_string(LipschitzKind::joint); }
+
+// Of the two norm-bound certificates, the one on the smaller L.
+CertificateKind better_norm_bound(const Design& d) {
+  return scalable(d) && d.bounds.L_scaled.value < d.L_used ? CertificateKind::scaled : CertificateKind::tight;
+}
+
+
+// The Lipschitz constant the certificate uses: L_T for the scaled one.
+double certificate_L(const Design& d, CertificateKind kind) {
+  return kind == CertificateKind::scaled ? d.bounds.L_scaled.value : d.L_used;
+}
+
+// The bounded-real lemma on L: tight, or scaled (on L_T in the coordinates T e: P = P₂ ⊗ T² in original
+// coordinates, whose envelope constant is P₂'s times cond(T); docs/theory.md, "Diagonal scaling").
+CertificateSummary tight_summary(const Design& d, std::optional<double> target, std::optional<double> theta,
+                                 CertificateKind kind = CertificateKind::tight) {
   CertificateSummary s;
-  const double m = d.rate_margin;
-  s.theta_star = tight_theta_star(d.alpha, d.beta, target.value_or(0.0), d.L_used);
-  s.observer = observer_at(d, CertificateKind::tight,
-                           target ? tight_theta_star(d.alpha, d.beta, *target / (1.0 - m), d.L_used) : *theta);
+  const double m = d.rate_margin, L = certificate_L(d, kind);
+  s.theta_star = tight_theta_star(d.alpha, d.beta, target.value_or(0.0), L);
+  s.observer = observer_at(d, kind, target ? tight_theta_star(d.alpha, d.beta, *target / (1.0 - m), L) : *theta);
   CertifiedObserver& o = s.observer;
-  s.rate = tight_rate(o.k1, o.k2, d.L_used);
+  o.L = L;
+  s.rate = tight_rate(o.k1, o.k2, L);
   o.gamma = target ? *target : s.rate - m * std::abs(s.rate);
-  const RiccatiCertificate cert = tight_certificate(o.k1, o.k2, d.L_used, o.gamma);
+  const RiccatiCertificate cert = tight_certificate(o.k1, o.k2, L, o.gamma);
   if (cert.exists) {
-    o.P = per_joint_matrix(cert.P, d.dof);
-    o.k = cert.k;
+    const Eigen::VectorXd& t = d.bounds.scaling;
+    o.P = kind == CertificateKind::scaled ? scaled_per_joint_matrix(cert.P, t) : per_joint_matrix(cert.P, d.dof);
+    o.k = kind == CertificateKind::scaled ? cert.k * t.maxCoeff() / t.minCoeff() : cert.k;
     s.lmi_max_eig = cert.lmi_max_eig;
   }
   o.certified = cert.exists && o.gamma > 0.0;
@@ -137,9 +155,10 @@ void certify_polytopic(Design& d, const Model& model, const DesignOptions& optio
   summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   d.polytope = summary;
   if (!d.polytopic || !d.polytopic->observer.certified) {
-    d.warnings.push_back(fmt::format("the polytopic certificate failed ({}): the tight certificate is used",
-                                     d.polytopic ? d.polytopic->status : "no proven polytope: " + summary.unproven));
-    d.certificate = CertificateKind::tight;
+    d.certificate = better_norm_bound(d);
+    d.warnings.push_back(fmt::format("the polytopic certificate failed ({}): the {} certificate is used",
+                                     d.polytopic ? d.polytopic->status : "no proven polytope: " + summary.unproven,
+                                     to_string(d.certificate)));
   }
 }
 
@@ -192,6 +211,19 @@ void choose_lipschitz(Design& d, const BoundReport& bounds, const DesignOptions&
   }
 }
 
+// The certificate asked for; unset, the scaled one where its proven L_T is below L_joint (the same lemma on a smaller
+// L: a smaller θ for a target and a larger rate at a θ), else the tight one.
+void choose_certificate(Design& d, const DesignOptions& options) {
+  d.certificate = options.certificate.value_or(better_norm_bound(d));
+  if (d.certificate == CertificateKind::scaled && !scalable(d)) {
+    d.warnings.push_back(fmt::format("--certificate scaled: {}; the tight certificate is used",
+                                     d.L_source != to_string(LipschitzKind::joint)
+                                         ? "diagonal scaling applies to the computed L_joint only"
+                                         : "the bounds kept no diagonal scaling (none lowered L_joint's estimate enough)"));
+    d.certificate = CertificateKind::tight;
+  }
+}
+
 // α and β: the options', or with --optimize-shape β = 1 and the α that is best for the certificate.
 void choose_shape(Design& d, const DesignOptions& options) {
   d.alpha = options.alpha;
@@ -201,11 +233,11 @@ void choose_shape(Design& d, const DesignOptions& options) {
   if (options.certificate == CertificateKind::paper) {  // polytopic: the tight certificate's α (design.hpp)
     d.shape = optimize_alpha("S_norm", [](double a) { return observer_lyapunov(a, 1.0, 1).S_norm; });
   } else if (options.gamma) {
-    d.shape = optimize_alpha("theta_star", [&](double a) { return tight_theta_star(a, 1.0, *options.gamma, d.L_used); });
+    const double L = certificate_L(d, d.certificate);
+    d.shape = optimize_alpha("theta_star", [&](double a) { return tight_theta_star(a, 1.0, *options.gamma, L); });
   } else {
-    d.shape = optimize_alpha("-gamma", [&](double a) {
-      return -tight_rate(*options.theta * a, *options.theta * *options.theta, d.L_used);
-    });
+    const double L = certificate_L(d, d.certificate);
+    d.shape = optimize_alpha("-gamma", [&](double a) { return -tight_rate(*options.theta * a, *options.theta * *options.theta, L); });
   }
   const bool polish_better = d.shape.objective_polish <= d.shape.objective_global;
   d.alpha = polish_better ? d.shape.alpha_polish : d.shape.alpha_global;
@@ -219,6 +251,7 @@ void certify(Design& d, const Model& model, const BoundReport& bounds, const Des
   d.lyapunov = observer_lyapunov(d.alpha, d.beta, d.dof);
   d.paper = paper_summary(d, options.gamma, options.theta);
   d.tight = tight_summary(d, options.gamma, options.theta);
+  if (scalable(d)) d.scaled = tight_summary(d, options.gamma, options.theta, CertificateKind::scaled);
   if (options.certificate == CertificateKind::polytopic) certify_polytopic(d, model, options);
   // Both certificates use L alone: proven bounds, or the user's own L, make the certificate a proof.
   if (!bounds.certified && !options.L_override) {
@@ -251,11 +284,12 @@ Design design_from_bounds(const Model& model, const BoundReport& bounds, const D
   d.robot_fingerprint = model.fingerprint;
   d.velocity_bounds = bounds.velocity_bounds;
   d.bounds = bounds;
-  d.certificate = options.certificate;
+  d.certificate = options.certificate.value_or(CertificateKind::tight);
   d.target_gamma = options.gamma;
   d.rate_margin = options.rate_margin;
   choose_lipschitz(d, bounds, options);
   if (!d.unfinished.empty()) return d;  // nothing can be certified on an unbounded L
+  choose_certificate(d, options);
   choose_shape(d, options);
   certify(d, model, bounds, options);
   return d;

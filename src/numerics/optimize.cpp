@@ -133,28 +133,47 @@ class PolishProblem final : public Ipopt::TNLP {
 
 }  // namespace
 
-OptimumPoint maximize_global(const Objective& f, const Eigen::VectorXd& lower, const Eigen::VectorXd& upper,
-                             int max_evaluations) {
-  const auto n = static_cast<unsigned>(lower.size());
+namespace {
+
+// Maximises f with one of NLopt's algorithms from x over [lower, upper]: the best point evaluated.
+OptimumPoint run_nlopt(nlopt::algorithm algorithm, const Objective& f, std::vector<double> x, const Eigen::VectorXd& lower,
+                       const Eigen::VectorXd& upper, double tolerance, int max_evaluations) {
+  const auto n = static_cast<unsigned>(x.size());
   GlobalData data{&f, {}, nullptr};
   data.best.value = -std::numeric_limits<double>::infinity();
-  nlopt::opt opt(nlopt::GN_DIRECT_L, n);
+  nlopt::opt opt(algorithm, n);
   opt.set_lower_bounds(std::vector<double>(lower.data(), lower.data() + n));
   opt.set_upper_bounds(std::vector<double>(upper.data(), upper.data() + n));
   opt.set_max_objective(nlopt_objective, &data);
   opt.set_maxeval(max_evaluations);
-  opt.set_xtol_abs(1e-12);
-  std::vector<double> x(n);
-  for (unsigned i = 0; i < n; ++i) x[i] = 0.5 * (lower(i) + upper(i));
+  opt.set_xtol_abs(tolerance);
   double value = 0.0;
   try {
     opt.optimize(x, value);
   } catch (const nlopt::roundoff_limited&) {
-    // DIRECT ran into rounding at a converged point: the best point found so far is the answer.
+    // Rounding at a converged point: the best point found so far is the answer.
   } catch (const nlopt::forced_stop&) {
   }
   if (data.error) std::rethrow_exception(data.error);
   return data.best;
+}
+
+}  // namespace
+
+OptimumPoint maximize_global(const Objective& f, const Eigen::VectorXd& lower, const Eigen::VectorXd& upper,
+                             int max_evaluations) {
+  std::vector<double> x(static_cast<std::size_t>(lower.size()));
+  for (std::size_t i = 0; i < x.size(); ++i) x[i] = 0.5 * (lower(static_cast<Eigen::Index>(i)) + upper(static_cast<Eigen::Index>(i)));
+  return run_nlopt(nlopt::GN_DIRECT_L, f, x, lower, upper, 1e-12, max_evaluations);
+}
+
+OptimumPoint minimize_nonsmooth(const Objective& f, const Eigen::VectorXd& x0, const Eigen::VectorXd& lower,
+                                const Eigen::VectorXd& upper, double tolerance, int max_evaluations) {
+  const Objective negated = [&f](const Eigen::VectorXd& x) { return -f(x); };
+  OptimumPoint best = run_nlopt(nlopt::LN_SBPLX, negated, std::vector<double>(x0.data(), x0.data() + x0.size()), lower,
+                                upper, tolerance, max_evaluations);
+  best.value = -best.value;
+  return best;
 }
 
 ScalarOptimum minimize_golden(const std::function<double(double)>& f, double lower, double upper, double tolerance,

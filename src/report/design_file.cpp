@@ -41,7 +41,7 @@ CertifiedObserver certified_observer(const nlohmann::json& j, const Eigen::Vecto
   if (!d.at("certified").get<bool>()) throw InputError("the saved design is not certified: nothing to validate");
   CertifiedObserver o;
   const std::string kind = d.value("certificate", j.value("certificate", "tight"));
-  o.certificate = kind == "paper" ? CertificateKind::paper : kind == "polytopic" ? CertificateKind::polytopic : CertificateKind::tight;
+  o.certificate = certificate_kind(kind);
   o.alpha = d.at("alpha").get<double>();
   o.beta = d.at("beta").get<double>();
   o.theta = d.at("theta").get<double>();
@@ -49,7 +49,7 @@ CertifiedObserver certified_observer(const nlohmann::json& j, const Eigen::Vecto
   o.k2 = d.at("k2").get<double>();
   o.gamma = d.at("envelope_gamma").get<double>();
   o.k = d.at("k").get<double>();
-  o.L = j.at("bounds").at("L_used").get<double>();
+  o.L = d.value("L", j.at("bounds").at("L_used").get<double>());  // designs saved before "L" was written: L_used
   o.velocity_bounds = V;
   o.certified = true;
   const auto P = d.at("P").get<std::vector<std::vector<double>>>();

@@ -68,10 +68,11 @@ void write_data(const VerificationReport& r, const fs::path& dir) {
   write_file(dir / "monte_carlo_errors.csv", errors.str());
 
   std::ostringstream rates;
-  rates << "theta,paper_gamma,tight_gamma,polytopic_gamma\n";
+  const auto number_or_nan = [](double x) { return std::isnan(x) ? std::string("NaN") : fmt::format("{:.12g}", x); };
+  rates << "theta,paper_gamma,tight_gamma,polytopic_gamma,scaled_gamma\n";
   for (const auto& p : r.rate_curve)
-    rates << fmt::format("{:.9g},{:.12g},{:.12g},{}\n", p.theta, p.paper_gamma, p.tight_gamma,
-                         std::isnan(p.polytopic_gamma) ? std::string("NaN") : fmt::format("{:.12g}", p.polytopic_gamma));
+    rates << fmt::format("{:.9g},{:.12g},{:.12g},{},{}\n", p.theta, p.paper_gamma, p.tight_gamma,
+                         number_or_nan(p.polytopic_gamma), number_or_nan(p.scaled_gamma));
   write_file(dir / "rate_vs_theta.csv", rates.str());
 
   if (r.design.deployment) {
@@ -163,19 +164,21 @@ Plot error_traces_plot(const VerificationReport& r) {
 
 Plot rate_plot(const VerificationReport& r) {
   const bool polytopic = r.design.design.certificate == CertificateKind::polytopic;
-  return {"rate_vs_theta", polytopic ? "Certified rate against the gain: paper, tight, and the polytopic certificate's SDP estimate"
-                                     : "Certified rate against the gain, both certificates",
+  const bool scaled = r.design.design.scaled.has_value();
+  return {"rate_vs_theta", fmt::format("Certified rate against the gain: paper, tight{}{}", scaled ? ", scaled" : "",
+                                       polytopic ? ", and the polytopic certificate's SDP estimate" : ""),
           std::string(kPlotPreamble) +
               fmt::format("set title \"dotted: the design's theta = {0:.6g}\"\nset xlabel 'theta [1/s]'\n"
                           "set ylabel 'certified gamma [1/s]'\n"
                           "set arrow from {0:.9g}, graph 0 to {0:.9g}, graph 1 nohead dt 3\n"
                           "plot 'rate_vs_theta.csv' every ::1 using 1:2 with lines lw 2 title 'paper', "
-                          "'rate_vs_theta.csv' every ::1 using 1:3 with lines lw 2 title 'tight', {1}"
+                          "'rate_vs_theta.csv' every ::1 using 1:3 with lines lw 2 title 'tight', {2}{1}"
                           "0 with lines lc rgb 'black' notitle\n",
                           r.design.design.selected().observer.theta,
                           polytopic ? "'rate_vs_theta.csv' every ::1 using 1:4 with points pt 7 ps 1.5 "
                                       "title 'polytopic (SDP estimate)', "
-                                    : "")};
+                                    : "",
+                          scaled ? "'rate_vs_theta.csv' every ::1 using 1:5 with lines lw 2 title 'scaled (T e)', " : "")};
 }
 
 Plot tradeoff_plot(const VerificationReport& r) {
@@ -332,10 +335,12 @@ std::string certificate_section(const VerificationReport& r) {
     << "]], ||S|| = " << number(d.lyapunov.S_norm) << ", relative residual " << fmt::format("{:.1e}", d.lyapunov.residual)
     << ".</p>\n";
   std::vector<std::string> header = {"", "paper (Theorem 1)", "tight (bounded-real)"};
+  if (d.scaled) header.push_back("scaled (bounded-real, T = diag" + format_vector(d.bounds.scaling) + ")");
   if (d.polytopic) header.push_back("polytopic (full P, SDP)");
   std::string rows = table_row(header, true);
   for (const ComparisonRow& row : certificate_comparison(d)) {
     std::vector<std::string> cells = {row.label, number(row.paper), number(row.tight)};
+    if (row.scaled) cells.push_back(number(*row.scaled));
     if (row.polytopic) cells.push_back(number(*row.polytopic));
     rows += table_row(cells);
   }

@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <sstream>
+#include <tuple>
 
 namespace obsgain {
 
@@ -74,12 +75,13 @@ std::vector<ComparisonRow> certificate_comparison(const Design& d) {
       {"k (envelope constant)", p.k, t.k},
       {"k1 = theta alpha", p.k1, t.k1},
       {"k2 = theta^2 beta", p.k2, t.k2}};
-  if (d.polytopic) {
-    const CertificateSummary& s = *d.polytopic;
+  const auto column = [&](const CertificateSummary& s, std::optional<double> ComparisonRow::*cell) {
     const std::vector<double> values = {s.theta_star, s.observer.theta, s.rate, s.observer.gamma, s.observer.k,
                                         s.observer.k1, s.observer.k2};
-    for (std::size_t i = 0; i < rows.size(); ++i) rows[i].polytopic = values[i];
-  }
+    for (std::size_t i = 0; i < rows.size(); ++i) rows[i].*cell = values[i];
+  };
+  if (d.scaled) column(*d.scaled, &ComparisonRow::scaled);
+  if (d.polytopic) column(*d.polytopic, &ComparisonRow::polytopic);
   return rows;
 }
 
@@ -100,11 +102,13 @@ nlohmann::json to_json(const Eigen::VectorXd& vector) {
 }
 
 nlohmann::json certified_json(const BoundReport& b) {
-  return {{"M0", bracket_json(b.M0_bracket)}, {"B", bracket_json(b.B_bracket)}, {"L_joint", bracket_json(b.L_joint_bracket)}};
+  nlohmann::json j = {{"M0", bracket_json(b.M0_bracket)}, {"B", bracket_json(b.B_bracket)}, {"L_joint", bracket_json(b.L_joint_bracket)}};
+  if (b.scaled()) j["L_scaled"] = bracket_json(b.L_scaled_bracket);
+  return j;
 }
 
 nlohmann::json to_json(const BoundReport& b) {
-  return {{"method", b.method()},
+  nlohmann::json j = {{"method", b.method()},
           {"velocity_bounds", to_json(b.velocity_bounds)},
           {"M0", b.M0.value},
           {"B", b.B.value},
@@ -113,6 +117,12 @@ nlohmann::json to_json(const BoundReport& b) {
           {"L_joint", b.L_joint.value},
           {"search", {{"M0", bound_json(b.M0)}, {"B", bound_json(b.B)}, {"L_joint", bound_json(b.L_joint)}}},
           {"wall_seconds", b.wall_seconds}};
+  if (b.scaled()) {
+    j["scaling"] = to_json(b.scaling);
+    j["L_scaled"] = b.L_scaled.value;
+    j["search"]["L_scaled"] = bound_json(b.L_scaled);
+  }
+  return j;
 }
 
 nlohmann::json to_json(const CertificateSummary& s) {
@@ -125,6 +135,7 @@ nlohmann::json to_json(const CertificateSummary& s) {
           {"k", number_or_null(o.k)},
           {"k1", o.k1},
           {"k2", o.k2},
+          {"L", o.L},
           {"P", to_json(o.P)},
           {"lmi_max_eig", s.lmi_max_eig ? nlohmann::json(*s.lmi_max_eig) : nlohmann::json(nullptr)},
           {"status", s.status},
@@ -180,6 +191,7 @@ nlohmann::json to_json(const Design& d) {
   design["beta"] = d.beta;
   design["target_gamma"] = d.target_gamma ? nlohmann::json(*d.target_gamma) : nlohmann::json(nullptr);
   design["rate_margin"] = d.rate_margin;
+  if (d.certificate == CertificateKind::scaled) design["scaling"] = to_json(d.bounds.scaling);
   nlohmann::json j = {
       {"robot",
        {{"name", d.robot_name}, {"dof", d.dof}, {"source", d.robot_source.robot},
@@ -202,6 +214,7 @@ nlohmann::json to_json(const Design& d) {
   else if (!d.proven())
     j["certified_reason"] = d.not_proven_reason;
   if (d.bounds.certified) j["bounds"]["brackets"] = certified_json(d.bounds);
+  if (d.scaled) j["comparison"]["scaled"] = to_json(*d.scaled);
   if (d.polytopic) j["comparison"]["polytopic"] = to_json(*d.polytopic);
   if (d.polytope)
     j["polytope"] = {{"cells", d.polytope->cells},       {"vertices", d.polytope->vertices},
@@ -265,13 +278,17 @@ std::string format_bounds(const Design& d) {
   out << fmt::format("Bounds ({}: NLopt DIRECT-L, then Ipopt polish{})\n", b.method(),
                      b.certified ? "; then interval branch and bound" : "");
   out << fmt::format("  {:<8} {:>14} {:>14} {:>14}   {}\n", "", "value", "NLopt", "Ipopt", "argmax");
-  for (const auto& [name, m] : {std::pair{"M0", &b.M0}, {"B", &b.B}, {"L_joint", &b.L_joint}}) {
+  std::vector<std::tuple<const char*, const BoundMaximum*, const BoundBracket*>> rows = {
+      {"M0", &b.M0, &b.M0_bracket}, {"B", &b.B, &b.B_bracket}, {"L_joint", &b.L_joint, &b.L_joint_bracket}};
+  if (b.scaled()) rows.emplace_back("L_T", &b.L_scaled, &b.L_scaled_bracket);
+  for (const auto& [name, m, k] : rows) {
     out << fmt::format("  {:<8} {:>14.7f} {:>14.7f} {:>14.7f}   {}\n", name, m->value, m->global_value,
                        m->polish_value, where(*m));
   }
+  if (b.scaled()) out << fmt::format("  (L_T = sup ||T Phi T^-1||, diagonal scaling T = diag{})\n", format_vector(b.scaling));
   if (b.certified) {
     out << "  certified brackets [attained, proven upper] (interval branch and bound; the design uses the upper ends):\n";
-    for (const auto& [name, k] : {std::pair{"M0", &b.M0_bracket}, {"B", &b.B_bracket}, {"L_joint", &b.L_joint_bracket}})
+    for (const auto& [name, m, k] : rows)
       out << fmt::format("  {:<8} [{:.10g}, {:.10g}]  gap {:.1e}, {} boxes, {:.2f} s{}\n", name, k->lower, k->upper,
                          (k->upper - k->lower) / k->upper, k->boxes, k->seconds, stop_note(k->stop));
   }
@@ -292,13 +309,21 @@ std::string format_certificates(const Design& d) {
                        d.shape.objective, d.alpha, d.shape.alpha_global, d.shape.alpha_polish);
   out << fmt::format("\nCertificates{}\n", d.target_gamma ? fmt::format(" for target gamma = {:.6g}", *d.target_gamma)
                                                              : fmt::format(" at theta = {:.6g}", d.paper.observer.theta));
-  out << fmt::format("  {:<38} {:>14} {:>16}{}\n", "", "paper", "tight", d.polytopic ? fmt::format(" {:>16}", "polytopic") : "");
+  const auto cell = [](const std::optional<double>& x) {
+    return !x ? std::string() : std::isnan(*x) ? fmt::format(" {:>16}", "(not searched)") : fmt::format(" {:>16.6g}", *x);
+  };
+  out << fmt::format("  {:<38} {:>14} {:>16}{}{}\n", "", "paper", "tight", d.scaled ? fmt::format(" {:>16}", "scaled") : "",
+                     d.polytopic ? fmt::format(" {:>16}", "polytopic") : "");
   for (const ComparisonRow& row : certificate_comparison(d))
-    out << fmt::format("  {:<38} {:>14.6g} {:>16.6g}{}\n", row.label, row.paper, row.tight,
-                       !row.polytopic              ? std::string()
-                       : std::isnan(*row.polytopic) ? fmt::format(" {:>16}", "(not searched)")
-                                                    : fmt::format(" {:>16.6g}", *row.polytopic));
-  if (d.tight.lmi_max_eig) out << fmt::format("  {:<38} {:>14} {:>16.3e}\n", "LMI largest eigenvalue", "", *d.tight.lmi_max_eig);
+    out << fmt::format("  {:<38} {:>14.6g} {:>16.6g}{}{}\n", row.label, row.paper, row.tight, cell(row.scaled),
+                       cell(row.polytopic));
+  if (d.tight.lmi_max_eig)
+    out << fmt::format("  {:<38} {:>14} {:>16.3e}{}\n", "LMI largest eigenvalue", "", *d.tight.lmi_max_eig,
+                       d.scaled && d.scaled->lmi_max_eig ? fmt::format(" {:>16.3e}", *d.scaled->lmi_max_eig) : "");
+  if (d.scaled)
+    out << fmt::format("  scaled: T = diag{}, cond(T) = {:.4g}; L_T = {:.7g} where L_joint = {:.7g}\n",
+                       format_vector(d.bounds.scaling), d.bounds.scaling.maxCoeff() / d.bounds.scaling.minCoeff(),
+                       d.bounds.L_scaled.value, d.L_used);
   if (d.polytope)
     out << fmt::format("  polytope: {} cells ({} per searched joint), {} vertices{}; {:.1f} s\n", d.polytope->cells,
                        d.polytope->grid, d.polytope->vertices,

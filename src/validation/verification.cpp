@@ -51,6 +51,7 @@ std::vector<RateCurvePoint> rate_curve(const Model& model, const Design& d, cons
     const double t = theta * (0.1 + 2.9 * k / 200.0);
     const double k1 = t * d.alpha, k2 = t * t * d.beta;
     curve.push_back({t, paper_rate(d.lyapunov.S_norm, t, d.L_used), tight_rate(k1, k2, d.L_used),
+                     d.scaled ? tight_rate(k1, k2, d.scaled->observer.L) : std::numeric_limits<double>::quiet_NaN(),
                      polytopic && k % 25 == 0 ? polytopic_rate(polytope, k1, k2, coarse)
                                               : std::numeric_limits<double>::quiet_NaN()});
   }

@@ -372,7 +372,7 @@ TEST(DeploymentApps, DesignGainsWritesTheDeploymentObjectAndExports) {
 }
 
 TEST(DeploymentApps, APeriodAboveTheLimitOrATolerancePastReachIsRefused) {
-  // The rate design (θ = 65.7) at 1 kHz: its certified ultimate velocity error (13 rad/s) exceeds the default
+  // The rate design (scaled, θ = 54.4) at 1 kHz: its certified ultimate velocity error (17 rad/s) exceeds the default
   // tolerance (min V = 10): exit 1, naming the limit.
   const std::string header = ::testing::TempDir() + "/obsgain_refused_gains.hpp";
   std::remove(header.c_str());
@@ -429,17 +429,19 @@ TEST(PolytopicApps, PendubotDesignIsProvenAndPassesMonteCarlo) {
   EXPECT_EQ(report["passed"], 100);
 }
 
-// Where the polytope cannot be proven (too few cells for M to be proven invertible), the tight certificate is used
-// and the warning says why.
-TEST(PolytopicApps, FallsBackToTheTightCertificateAndSaysWhy) {
+// Where the polytope cannot be proven (too few cells for M to be proven invertible), the better norm-bound
+// certificate is used (on arm3 the scaled one: its L_T is below L_joint) and the warning says why.
+TEST(PolytopicApps, FallsBackToTheNormBoundCertificateAndSaysWhy) {
   const AppRun r = run("design-gains", "--robot " + std::string(OBSGAIN_EXAMPLES_DIR) +
                                            "/arm3.urdf --gamma 5 --certificate polytopic --polytope-cells 4 --json");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const nlohmann::json j = nlohmann::json::parse(r.out);
-  EXPECT_EQ(j["certificate"], "tight");
+  EXPECT_EQ(j["certificate"], "scaled");
+  EXPECT_LT(j["bounds"]["L_scaled"].get<double>(), j["bounds"]["L_joint"].get<double>());
   EXPECT_TRUE(j["certified"].get<bool>());
   const std::string warnings = j["warnings"].dump();
   EXPECT_NE(warnings.find("the polytopic certificate failed (no proven polytope"), std::string::npos) << warnings;
+  EXPECT_NE(warnings.find("the scaled certificate is used"), std::string::npos) << warnings;
 }
 
 }  // namespace

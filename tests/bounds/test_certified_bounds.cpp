@@ -1,6 +1,7 @@
 #include "json.hpp"
 #include "obsgain/bounds/certified_bounds.hpp"
 #include "obsgain/bounds/enclosures.hpp"
+#include "obsgain/bounds/perturbation_polytope.hpp"
 #include "obsgain/numerics/taylor.hpp"
 #include "obsgain/model/dynamics.hpp"
 #include "obsgain/design/design.hpp"
@@ -61,6 +62,32 @@ TEST(PendubotBrackets, RandomSamplingNeverExceedsTheUpperBounds) {
     EXPECT_LE(obsgain::coriolis_jacobian_norm(pendubot_model(), q, v), pendubot_brackets().B.upper);
     EXPECT_LE(obsgain::joint_lipschitz_norm(pendubot_model(), q, v, D), pendubot_brackets().L_joint.upper);
   }
+}
+
+// Diagonal scaling on the Pendubot: the T the search keeps is the sampled study's (T = diag(1, 0.568), found
+// there by other code), L_T is proven to 1e-6, and ||T Φ T⁻¹|| never exceeds it at dense random (q, w, D), Φ from
+// the polytope's independent evaluation of -M⁻¹(J(w) D + F).
+TEST(PendubotBrackets, DiagonalScalingIsProvenAndHoldsAtRandomPoints) {
+  const obsgain::BoundReport numeric = obsgain::compute_bounds(pendubot_model(), Eigen::Vector2d(10, 10));
+  ASSERT_TRUE(numeric.scaled());
+  EXPECT_EQ(numeric.scaling(0), 1.0);
+  EXPECT_NEAR(numeric.scaling(1), 0.568, 0.002);
+  ASSERT_TRUE(pendubot_brackets().L_scaled.has_value());
+  const obsgain::BoundBracket& L = *pendubot_brackets().L_scaled;
+  EXPECT_LE(L.upper - L.lower, 1e-6 * L.upper);
+  EXPECT_NEAR(L.upper, 35.6743, 1e-4);
+  EXPECT_LT(L.upper, 0.83 * pendubot_brackets().L_joint.lower);  // 17.7 % below L_joint
+  const Eigen::Vector2d t = numeric.scaling;
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> angle(-std::numbers::pi, std::numbers::pi), unit(0.0, 1.0), box(-10.0, 10.0);
+  for (int i = 0; i < 20000; ++i) {
+    const Eigen::Vector2d q(angle(rng), angle(rng)), w(box(rng), box(rng)), D(unit(rng), unit(rng));
+    const Eigen::MatrixXd Phi = obsgain::perturbation_matrix(pendubot_model(), q, w, D);
+    EXPECT_LE((t.asDiagonal() * Phi * t.cwiseInverse().asDiagonal()).operatorNorm(), L.upper);
+  }
+  // The lower end is attained at the bracket's argmax, at the vertex w = (10, 10), D = I, by that evaluation too.
+  const Eigen::MatrixXd Phi = obsgain::perturbation_matrix(pendubot_model(), L.argmax, Eigen::Vector2d(10, 10), Eigen::Vector2d(1, 1));
+  EXPECT_NEAR((t.asDiagonal() * Phi * t.cwiseInverse().asDiagonal()).operatorNorm(), L.lower, 1e-9 * L.lower);
 }
 
 TEST(IntervalEnclosures, NormAndEigenvalueBoundsHoldForEveryMember) {
@@ -125,14 +152,15 @@ TEST(CertifiedDesign, FallsBackToNumericWithAWarningAndIsNeverCalledCertified) {
   options.bounds.global_evaluations_per_dimension = 10;  // the search itself is not what is tested
   options.bounds.samples_per_dimension = 2;
   options.bounds.polish_starts = 1;
-  const obsgain::BoundReport bounds = obsgain::compute_bounds(model, model.velocity_bounds, options.bounds);
+  // The bounds once (the numeric search of nine joints is most of this test's time, seconds under the sanitizers).
+  std::vector<std::string> warnings;
+  const obsgain::BoundReport bounds = obsgain::design_bounds(model, model.velocity_bounds, options, warnings);
   EXPECT_FALSE(obsgain::certify_bounds(model, bounds).has_value());
-  const obsgain::Design design = obsgain::design_gains(model, options);
+  const obsgain::Design design = obsgain::design_from_bounds(model, bounds, options);
   EXPECT_STREQ(design.bounds.method(), "numeric");
   EXPECT_FALSE(design.bounds.certified);
-  ASSERT_FALSE(design.warnings.empty());
-  EXPECT_NE(design.warnings.front().find("certified bounds search at most"), std::string::npos) << design.warnings.front();
-  EXPECT_EQ(design.bounds.L_joint.value, bounds.L_joint.value);
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_NE(warnings.front().find("certified bounds search at most"), std::string::npos) << warnings.front();
   // The certificate holds on the estimated L, but it is not a proof: never labelled certified.
   EXPECT_TRUE(design.selected().observer.certified);
   EXPECT_FALSE(design.proven());
@@ -159,6 +187,7 @@ obsgain::BoundReport light_search(const obsgain::Model& model) {
   options.global_evaluations_per_dimension = 100;
   options.polish_starts = 1;
   options.samples_per_dimension = 4;
+  options.diagonal_scaling = false;  // L_T's search is tested on the Pendubot
   return obsgain::compute_bounds(model, model.velocity_bounds, options);
 }
 
@@ -218,17 +247,16 @@ TEST(ArmBrackets, LongSearchesReportProgress) {
   const obsgain::BoundReport numeric = light_search(arm);
   obsgain::CertifiedOptions options;
   options.budget_seconds = 4.0;  // L_joint gets 3.6
-  options.relative_gap = 1e-12;  // not reached: the budget ends every search
+  options.relative_gap = 1e-12;  // L_joint reaches it in about a second; the budget ends the others
   std::vector<obsgain::SearchProgress> reports;
   options.progress = [&](const obsgain::SearchProgress& p) { reports.push_back(p); };
   obsgain::certify_bounds(arm, numeric, options);
   ASSERT_FALSE(reports.empty());
-  const std::string first = reports.front().bound;
-  EXPECT_EQ(first, "L_joint");
   for (std::size_t i = 0; i < reports.size(); ++i) {
     const obsgain::SearchProgress& p = reports[i];
     EXPECT_GE(p.seconds, 1.0);
-    if (first == p.bound) EXPECT_DOUBLE_EQ(p.work_budget, 0.9 * 4.0);
+    // L_joint runs first (it may end at its gap before its first report on an idle machine).
+    if (std::string(p.bound) == "L_joint") EXPECT_DOUBLE_EQ(p.work_budget, 0.9 * 4.0);
     EXPECT_LE(p.work_budget, 4.0);
     EXPECT_LE(p.work, p.work_budget + 0.05);  // at most a round's work past the budget
     EXPECT_LE(p.lower, p.upper);

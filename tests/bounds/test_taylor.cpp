@@ -283,6 +283,40 @@ TEST_P(TaylorDynamics, JointLipschitzBoxBoundsHoldAndAreTightOnSmallBoxes) {
   }
 }
 
+// The same for L_T = sup ||T Φ T⁻¹|| with a random diagonal T: the scaled forms' bound holds and is as tight; with
+// T = I it equals the unscaled bound to the rounding of the scaling (a factor 1 + 1e-15).
+TEST_P(TaylorDynamics, ScaledJointLipschitzBoxBoundsHoldAndAreTightOnSmallBoxes) {
+  const obsgain::Model model = obsgain::load_robot({examples + "/" + GetParam()});
+  const obsgain::JointSearch s = obsgain::joint_search(model, obsgain::configuration_joints(model));
+  std::mt19937_64 rng(8);
+  std::uniform_real_distribution<double> unit(0.0, 1.0), angle(-3.0, 3.0), logarithm(-1.2, 1.2);
+  const Eigen::VectorXd ones = Eigen::VectorXd::Ones(model.dof());
+  const obsgain::BoxBounds plain(model, s, model.velocity_bounds), unit_scaled(model, s, model.velocity_bounds, ones);
+  for (int trial = 0; trial < 4; ++trial) {
+    Eigen::VectorXd t = Eigen::VectorXd::Ones(model.dof());
+    for (int i = 1; i < model.dof(); ++i) t(i) = std::exp(logarithm(rng));
+    const obsgain::BoxBounds scaled(model, s, model.velocity_bounds, t);
+    std::vector<obsgain::Interval> box;
+    for (std::size_t k = 0; k < s.joints.size(); ++k) {
+      const double lo = angle(rng);
+      box.emplace_back(lo, lo + 0.02);
+    }
+    const obsgain::UpwardRounding upward;
+    const double bound = scaled.joint_lipschitz(box, 0.0).upper, unscaled = plain.joint_lipschitz(box, 0.0).upper;
+    EXPECT_GE(unit_scaled.joint_lipschitz(box, 0.0).upper, unscaled) << GetParam();
+    EXPECT_LE(unit_scaled.joint_lipschitz(box, 0.0).upper, unscaled * (1.0 + 1e-12)) << GetParam();
+    double attained = 0.0;
+    for (int point = 0; point < 40; ++point) {
+      Eigen::VectorXd x(static_cast<Eigen::Index>(box.size()));
+      for (std::size_t k = 0; k < box.size(); ++k)
+        x(k) = box[k].lower() + (point < 8 ? ((point >> (k % 3)) & 1) : unit(rng)) * 0.02;
+      attained = std::max(attained, obsgain::max_joint_lipschitz_norm(model, s.configuration(x), model.velocity_bounds, t));
+    }
+    EXPECT_GE(bound, attained) << GetParam();
+    EXPECT_LE(bound, 1.03 * attained) << GetParam();
+  }
+}
+
 INSTANTIATE_TEST_SUITE_P(TwoThreeSixAndSevenJoints, TaylorDynamics,
                          ::testing::Values("pendubot.urdf", "arm3.urdf", "arm6.urdf", "arm7.urdf"));
 

@@ -1,10 +1,13 @@
 #include "json.hpp"
 #include "obsgain/certificate/certificate.hpp"
+#include "obsgain/bounds/perturbation_polytope.hpp"
 #include "obsgain/design/design.hpp"
 #include "obsgain/model/planar_2r.hpp"
 #include "obsgain/report/report.hpp"
 
 #include <gtest/gtest.h>
+
+#include <random>
 
 namespace {
 
@@ -75,10 +78,11 @@ TEST(Design, ShapeOptimisationForTheTightCertificateBeatsAlphaOne) {
     EXPECT_GE(obsgain::tight_theta_star(a, 1.0, 1.27, 54.01), best.tight.theta_star * (1 - 1e-9)) << a;
 }
 
-TEST(Design, TightCertificateIsTheDefaultAndCertifiesTheTarget) {
+TEST(Design, TightCertificateCertifiesTheTarget) {
   obsgain::DesignOptions o;
   o.bound_method = obsgain::BoundMethod::numeric;  // bounds are not under test here
   o.gamma = 1.27;
+  o.certificate = obsgain::CertificateKind::tight;
   const obsgain::Design d = obsgain::design_gains(obsgain::pendubot(), o);
   EXPECT_EQ(d.certificate, obsgain::CertificateKind::tight);
   EXPECT_NEAR(d.L_used, 43.3475, 1e-5 * 43.3475);
@@ -89,6 +93,65 @@ TEST(Design, TightCertificateIsTheDefaultAndCertifiesTheTarget) {
   EXPECT_LT(*d.selected().lmi_max_eig, 0.0);
   // The tight design needs a far smaller gain than the paper's for the same L.
   EXPECT_LT(d.tight.theta_star, 0.5 * d.paper.theta_star);
+}
+
+// The default on the Pendubot is the scaled certificate: the bounded-real lemma on the proven L_T in the coordinates
+// T e (θ* 54.39 where the tight one needs 65.65). Its P = P₂ ⊗ T², checked here against the real perturbation: at
+// random (q, w, D), Φ = -M⁻¹(J(w) D + F) evaluated independently, (A + EΦ)ᵀP + P(A + EΦ) + 2γP is negative
+// semidefinite in original coordinates; and k = sqrt(λmax(P) / λmin(P)).
+TEST(Design, ScaledCertificateIsTheDefaultWhereItIsBetterAndHoldsForTheRealPerturbation) {
+  obsgain::DesignOptions o;
+  o.gamma = 1.27;
+  const obsgain::Model model = obsgain::pendubot();
+  const obsgain::Design d = obsgain::design_gains(model, o);
+  ASSERT_EQ(d.certificate, obsgain::CertificateKind::scaled);
+  ASSERT_TRUE(d.proven() && d.selected().observer.certified);
+  EXPECT_NEAR(d.selected().theta_star, 54.388, 1e-3);
+  EXPECT_NEAR(d.tight.theta_star, 65.648, 1e-3);
+  EXPECT_EQ(d.selected().theta_star, obsgain::tight_theta_star(1.0, 1.0, 1.27, d.bounds.L_scaled.value));
+  const obsgain::CertifiedObserver& c = d.selected().observer;
+  EXPECT_EQ(c.L, d.bounds.L_scaled.value);
+  const Eigen::VectorXd t = d.bounds.scaling;
+  const Eigen::VectorXd lambda = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(c.P).eigenvalues();
+  EXPECT_NEAR(c.k, std::sqrt(lambda(3) / lambda(0)), 1e-9 * c.k);
+  EXPECT_NEAR(c.k, obsgain::tight_certificate(c.k1, c.k2, c.L, c.gamma).k * t.maxCoeff() / t.minCoeff(), 1e-9 * c.k);
+  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(4, 4);
+  A.topLeftCorner(2, 2) = -c.k1 * Eigen::Matrix2d::Identity();
+  A.topRightCorner(2, 2) = Eigen::Matrix2d::Identity();
+  A.bottomLeftCorner(2, 2) = -c.k2 * Eigen::Matrix2d::Identity();
+  std::mt19937_64 rng(4);
+  std::uniform_real_distribution<double> angle(-3.14159, 3.14159), unit(0.0, 1.0), box(-10.0, 10.0);
+  double worst = -1.0;
+  for (int i = 0; i < 5000; ++i) {
+    const Eigen::Vector2d q(angle(rng), angle(rng)), w(box(rng), box(rng)), D(unit(rng), unit(rng));
+    Eigen::MatrixXd closed = A;
+    closed.bottomRightCorner(2, 2) = obsgain::perturbation_matrix(model, q, w, D);
+    const Eigen::MatrixXd Q = closed.transpose() * c.P + c.P * closed + 2.0 * c.gamma * c.P;
+    worst = std::max(worst, Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(Q).eigenvalues().maxCoeff() / lambda(3));
+  }
+  EXPECT_LE(worst, 1e-12);
+  const nlohmann::json j = obsgain::to_json(d);
+  EXPECT_EQ(j["certificate"], "scaled");
+  EXPECT_EQ(j["design"]["scaling"], j["bounds"]["scaling"]);
+  EXPECT_EQ(j["design"]["theta"], j["comparison"]["scaled"]["theta"]);
+  EXPECT_EQ(j["bounds"]["L_scaled"], j["bounds"]["brackets"]["L_scaled"]["upper"]);
+  EXPECT_EQ(j["design"]["P"].size(), 4u);
+  // Without it the same Φ need the larger gain: the tight certificate, asked for by name, is unscaled.
+  o.certificate = obsgain::CertificateKind::tight;
+  EXPECT_EQ(obsgain::design_gains(model, o).selected().observer.theta, d.tight.observer.theta);
+}
+
+TEST(Design, ScaledCertificateRestsOnTheComputedLJointOnly) {
+  obsgain::DesignOptions o;
+  o.bound_method = obsgain::BoundMethod::numeric;  // bounds are not under test here
+  o.gamma = 1.27;
+  o.certificate = obsgain::CertificateKind::scaled;
+  o.L_override = 54.01;
+  const obsgain::Design d = obsgain::design_gains(obsgain::pendubot(), o);
+  EXPECT_EQ(d.certificate, obsgain::CertificateKind::tight);
+  EXPECT_FALSE(d.scaled.has_value());
+  const std::string warnings = nlohmann::json(d.warnings).dump();
+  EXPECT_NE(warnings.find("diagonal scaling applies to the computed L_joint only"), std::string::npos) << warnings;
 }
 
 TEST(Design, JsonCarriesTheContractKeys) {

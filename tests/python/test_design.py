@@ -20,13 +20,14 @@ def without_timings(value):
 def test_pendubot_equals_the_command_line(design):
     cli = app_json("design-gains", "--robot", "pendubot", "--gamma", "1.27")
     assert without_timings(design.data) == without_timings(cli)
-    # The paper's Pendubot: θ* 65.65 for γ = 1.27 (docs/theory.md), and the typed accessors read the same numbers.
-    assert design.theta == cli["design"]["theta"] == pytest.approx(65.67, abs=0.01)
+    # The paper's Pendubot: θ* 54.39 for γ = 1.27 with diagonal scaling, the default where it is better (65.65
+    # without; docs/theory.md), and the typed accessors read the same numbers.
+    assert design.theta == cli["design"]["theta"] == pytest.approx(54.41, abs=0.01)
     assert design.k2 == cli["design"]["k2"] and design.k == cli["design"]["k"]
     assert np.array_equal(design.P, np.array(cli["design"]["P"]))
-    assert design.meets_request and design.proven and design.certificate == "tight"
-    lower, upper = design.brackets["L_joint"]
-    assert (lower, upper) == (cli["bounds"]["brackets"]["L_joint"]["lower"], cli["bounds"]["brackets"]["L_joint"]["upper"])
+    assert design.meets_request and design.proven and design.certificate == "scaled"
+    lower, upper = design.brackets["L_scaled"]
+    assert (lower, upper) == (cli["bounds"]["brackets"]["L_scaled"]["lower"], cli["bounds"]["brackets"]["L_scaled"]["upper"])
     assert lower <= design.L == upper and upper - lower <= 1e-6 * upper  # the design rests on the proven upper end
 
 
@@ -61,10 +62,13 @@ def test_certificate_functions_reproduce_the_design(design):
     comparison = design.data["comparison"]
     S = obsgain.observer_lyapunov(1.0, 1.0, 2)
     assert S["S_norm"] == pytest.approx((5 + 5**0.5) / 4, rel=1e-14)  # λmax([[1, -1/2], [-1/2, 3/2]])
-    assert obsgain.tight_theta_star(1.0, 1.0, 1.27, design.L) == comparison["tight"]["theta_star"]
-    assert obsgain.paper_theta_star(S["S_norm"], 1.27, design.L) == pytest.approx(comparison["paper"]["theta_star"], rel=1e-14)
+    # The scaled certificate is the tight one on L_T (design.L); the paper's uses L_joint.
+    assert obsgain.tight_theta_star(1.0, 1.0, 1.27, design.L) == comparison["scaled"]["theta_star"]
+    L_joint = design.data["bounds"]["L_used"]
+    assert obsgain.tight_theta_star(1.0, 1.0, 1.27, L_joint) == comparison["tight"]["theta_star"]
+    assert obsgain.paper_theta_star(S["S_norm"], 1.27, L_joint) == pytest.approx(comparison["paper"]["theta_star"], rel=1e-14)
     rate = obsgain.tight_rate(design.k1, design.k2, design.L)
-    assert rate == comparison["tight"]["gamma"]
+    assert rate == comparison["scaled"]["gamma"]
     P = obsgain.tight_certificate(design.k1, design.k2, design.L, 1.27)
     assert P["exists"] and P["lmi_max_eig"] <= 0
 

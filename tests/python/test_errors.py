@@ -60,7 +60,7 @@ def test_monte_carlo_errors_carry_the_cli_message(design):
 def test_python_level_mistakes_are_named(pendubot, design):
     with pytest.raises(TypeError, match="'gama'"):
         obsgain.design_gains(pendubot, gama=1.27)
-    with pytest.raises(ValueError, match="certificate = 'best' must be one of tight, paper, polytopic"):
+    with pytest.raises(ValueError, match="certificate = 'best' must be one of tight, scaled, paper, polytopic"):
         obsgain.design_gains(pendubot, gamma=1, certificate="best")
     with pytest.raises(ValueError, match="gamma = 'fast' has the wrong type"):
         obsgain.design_gains(pendubot, gamma="fast")

@@ -11,6 +11,7 @@
 
 #include <Eigen/Dense>
 
+#include <optional>
 #include <vector>
 
 namespace obsgain {
@@ -26,10 +27,22 @@ struct BoxCosts {
 };
 BoxCosts box_costs(int n, int m);
 
+// A diagonal similarity T = diag(t) for L_T = sup ||T Φ T⁻¹|| (docs/theory.md, "Diagonal scaling"). The forms are
+// scaled to T X S, S = diag(s), s_k = 1/t_k rounded (each product's rounding bounded by the forms), and
+// ||T X T⁻¹|| = ||T X S · S⁻¹T⁻¹|| <= ||T X S|| · restore.
+struct DiagonalScaling {
+  Eigen::VectorXd rows, columns;  // t and s
+  double restore = 1.0;           // max_k 1 / (s_k t_k), rounded up
+  double stretch = 1.0;           // max_i t_i · max_k s_k, rounded up: ||T X S|| <= stretch ||X||
+};
+DiagonalScaling diagonal_scaling(const Eigen::VectorXd& t);
+
 class BoxBounds {
  public:
-  // Keeps references to the model and the search: they must outlive it.
-  BoxBounds(const Model& model, const JointSearch& search, const Eigen::VectorXd& velocity_bounds);
+  // Keeps references to the model and the search: they must outlive it. `scaling` (non-empty): joint_lipschitz
+  // bounds L_T for T = diag(scaling) instead of L_joint.
+  BoxBounds(const Model& model, const JointSearch& search, const Eigen::VectorXd& velocity_bounds,
+            const Eigen::VectorXd& scaling = {});
 
   // `lower`: a value attained elsewhere; a choice whose bound cannot exceed it is not refined.
   BoxBound inverse_inertia(const std::vector<Interval>& box) const;
@@ -48,6 +61,7 @@ class BoxBounds {
   unsigned count_, half_;
   bool frictionless_;
   BoxCosts costs_;
+  std::optional<DiagonalScaling> scaling_;
 };
 
 }  // namespace obsgain

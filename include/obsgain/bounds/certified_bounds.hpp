@@ -39,12 +39,14 @@ struct CertifiedOptions {
 
 struct CertifiedBounds {
   BoundBracket M0, B, L_joint;
+  std::optional<BoundBracket> L_scaled;  // when the numeric report kept a diagonal scaling
 };
 
 // Why a model cannot be certified, or empty when it can.
 std::string certification_unavailable(const Model& model);
 
-// Seeds its lower bounds with the numerical search's maxima. std::nullopt when the model cannot be
+// Seeds its lower bounds with the numerical search's maxima. With the joint focus and a scaling in the report, L_T
+// shares L_joint's part of the budget. std::nullopt when the model cannot be
 // evaluated on intervals (certification_unavailable says why).
 std::optional<CertifiedBounds> certify_bounds(const Model& model, const BoundReport& numeric,
                                               const CertifiedOptions& options = {});

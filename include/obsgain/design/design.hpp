@@ -28,7 +28,9 @@ struct DesignOptions {
   bool optimize_shape = false;  // β = 1, best α for the chosen certificate (docs/theory.md, "Shape optimisation")
   LipschitzKind lipschitz = LipschitzKind::joint;
   std::optional<double> L_override;  // e.g. the paper's 54.01
-  CertificateKind certificate = CertificateKind::tight;
+  // Unset: the tight certificate, or the scaled one where the bounds kept a diagonal scaling whose proven L_T is below
+  // L_joint (the same bounded-real lemma on a smaller L: a smaller θ for a target, a larger rate at a θ).
+  std::optional<CertificateKind> certificate;
   // The tight certificate's rate is a supremum; its matrix P is computed at γ_sup (1 - rate_margin), which
   // buys a finite, much smaller envelope constant k. A target-γ design raises θ so that γ itself is certified.
   double rate_margin = 0.01;
@@ -52,7 +54,7 @@ struct CertificateSummary {
   CertifiedObserver observer;  // the gains at the chosen θ and what they certify (observer.gamma: the envelope's rate)
   double theta_star = 0.0;     // smallest θ for the target γ (for a θ evaluation: for any positive rate)
   double rate = 0.0;           // the rate certified at θ (a supremum for tight; may be <= 0)
-  std::optional<double> lmi_max_eig;  // tight only: the LMI check, <= 0 certifies
+  std::optional<double> lmi_max_eig;  // tight and scaled: the LMI check, <= 0 certifies
   std::string status;                 // polytopic only: the SDP solver's and the interval check's verdict
 };
 
@@ -88,6 +90,7 @@ struct Design {
   std::optional<double> target_gamma;
   double rate_margin = 0.0;
   CertificateSummary paper, tight;
+  std::optional<CertificateSummary> scaled;     // when the bounds kept a diagonal scaling (bounds.scaling) for L_joint
   std::optional<CertificateSummary> polytopic;  // --certificate polytopic: its result, even when it fell back
   std::optional<PolytopeSummary> polytope;
   std::vector<std::string> notes;     // what loading the model decided (chain, lumped bodies, armature)
@@ -104,6 +107,7 @@ struct Design {
 
   const CertificateSummary& selected() const {
     if (certificate == CertificateKind::polytopic && polytopic) return *polytopic;
+    if (certificate == CertificateKind::scaled && scaled) return *scaled;
     return certificate == CertificateKind::paper ? paper : tight;
   }
 };

@@ -21,12 +21,12 @@ std::string to_json_text(const VerificationReport& report);
 // "(1, 2.5)": vectors in the human reports.
 std::string format_vector(const Eigen::VectorXd& v);
 
-// The paper and tight certificates side by side, row by row, and the polytopic one when it was asked for (the
-// text and HTML reports both show these).
+// The paper and tight certificates side by side, row by row, the scaled one when the bounds kept a diagonal scaling,
+// and the polytopic one when it was asked for (the text and HTML reports both show these).
 struct ComparisonRow {
   std::string label;
   double paper, tight;
-  std::optional<double> polytopic = std::nullopt;
+  std::optional<double> scaled = std::nullopt, polytopic = std::nullopt;
 };
 std::vector<ComparisonRow> certificate_comparison(const Design& design);
 

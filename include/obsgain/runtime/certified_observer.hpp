@@ -6,13 +6,18 @@
 
 #include <Eigen/Dense>
 
+#include <string>
+
 namespace obsgain {
 
 // paper: Theorem 1's Lyapunov function; tight: the best quadratic certificate for ||φ|| <= L ||e_v|| (bounded-real
-// lemma), per joint; polytopic: one full P over a proven polytope of the perturbation (docs/theory.md).
-enum class CertificateKind { paper, tight, polytopic };
+// lemma), per joint; scaled: the same in the coordinates T e, T diagonal, for ||T φ|| <= L_T ||T e_v||; polytopic:
+// one full P over a proven polytope of the perturbation (docs/theory.md).
+enum class CertificateKind { paper, tight, scaled, polytopic };
 
 const char* to_string(CertificateKind kind);
+// The kind to_string names ("paper", "scaled", "polytopic"); anything else is the tight certificate.
+CertificateKind certificate_kind(const std::string& name);
 
 struct CertifiedObserver {
   CertificateKind certificate = CertificateKind::tight;
@@ -22,7 +27,7 @@ struct CertifiedObserver {
   double k = 0.0;      // the envelope constant sqrt(λmax(P) / λmin(P))
   // V(e) = eᵀ P e with e = (q̂ - q, v̂ - v), positions first: 2n x 2n (P₂ ⊗ I_n for the per-joint certificates).
   Eigen::MatrixXd P;
-  double L = 0.0;                   // the Lipschitz constant of the perturbation (||φ|| <= L ||e_v||)
+  double L = 0.0;                   // the Lipschitz constant of the perturbation (||φ|| <= L ||e_v||; scaled: L_T)
   Eigen::VectorXd velocity_bounds;  // V: the assumption |v_i| <= V_i, and the observer's saturation σ_V
   bool certified = false;           // a positive rate with a valid P (on the bounds the design used)
 
@@ -31,5 +36,7 @@ struct CertifiedObserver {
 
 // P₂ ⊗ I_n in the (positions, velocities) ordering: [[p11 I, p12 I], [p21 I, p22 I]].
 Eigen::MatrixXd per_joint_matrix(const Eigen::Matrix2d& P2, int dof);
+// P₂ ⊗ T²: the per-joint certificate in the coordinates (T e_q, T e_v), T = diag(scaling), in original coordinates.
+Eigen::MatrixXd scaled_per_joint_matrix(const Eigen::Matrix2d& P2, const Eigen::VectorXd& scaling);
 
 }  // namespace obsgain
