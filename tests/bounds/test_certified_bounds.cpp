@@ -280,7 +280,7 @@ TEST(ArmBrackets, SixAndSevenJointArmBracketsAreNeverBelowSampledValues) {
     const obsgain::Model arm = obsgain::load_robot({examples + "/" + file});
     const int n = arm.dof();
     const obsgain::BoundReport numeric = light_search(arm);
-    const obsgain::CertifiedBounds brackets = certify_with(arm, numeric, 2.0);
+    const obsgain::CertifiedBounds brackets = certify_with(arm, numeric, 1.0);
     EXPECT_GE(brackets.M0.upper, numeric.M0.value) << file;
     EXPECT_GE(brackets.B.upper, numeric.B.value) << file;
     EXPECT_GE(brackets.L_joint.upper, numeric.L_joint.value) << file;
