@@ -301,7 +301,14 @@ BoundReport design_bounds(const Model& model, const Eigen::VectorXd& V, const De
     if (options.progress) options.progress(text);
   };
   phase(fmt::format("bounds: numeric search over {} joints (NLopt DIRECT-L, then Ipopt)", configuration_joints(model).size()));
-  BoundReport bounds = compute_bounds(model, V, options.bounds);
+  // A diagonal scaling serves the scaled certificate only (the polytopic one falls back to it): it is not searched
+  // when another certificate is named, or when the certificate rests on L_paper or the user's L.
+  BoundOptions bound_options = options.bounds;
+  const bool scalable_request = !options.L_override && options.lipschitz == LipschitzKind::joint &&
+                                options.certificate.value_or(CertificateKind::scaled) != CertificateKind::tight &&
+                                options.certificate != CertificateKind::paper;
+  if (!scalable_request) bound_options.diagonal_scaling = false;
+  BoundReport bounds = compute_bounds(model, V, bound_options);
   if (options.bound_method == BoundMethod::certified) {
     phase(options.certified_bounds.budget_seconds > 0.0
               ? fmt::format("bounds: interval branch and bound, budget {:g} s (--bound-budget)",

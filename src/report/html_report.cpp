@@ -253,13 +253,14 @@ std::string verdict_section(const VerificationReport& r) {
   const bool proven = o.certified && d.proven();
   double worst_gap = 0.0;
   if (b.certified)
-    for (const BoundBracket* k : {&b.M0_bracket, &b.B_bracket, &b.L_joint_bracket})
-      worst_gap = std::max(worst_gap, (k->upper - k->lower) / k->upper);
+    for (const BoundBracket* k : {&b.M0_bracket, &b.B_bracket, &b.L_joint_bracket, &b.L_scaled_bracket})
+      if (k->upper > 0.0) worst_gap = std::max(worst_gap, (k->upper - k->lower) / k->upper);
   std::ostringstream h;
   h << "<div style='border:2px solid " << (proven ? "#060" : "#a00") << ";padding:.5em 1em;margin:1em 0'>\n<p>"
     << verdict_line(d) << "</p>\n<p>Gains k1 = " << number(o.k1) << ", k2 = " << number(o.k2) << " (θ = "
     << number(o.theta) << ", α = " << number(d.alpha) << ", β = " << number(d.beta) << "), " << to_string(d.certificate)
-    << " certificate on L = " << number(d.L_used) << " (" << escape(d.L_source) << "). Bounds: "
+    << " certificate on L = " << number(o.L) << " ("
+    << escape(d.certificate == CertificateKind::scaled ? std::string("L_T") : d.L_source) << "). Bounds: "
     << (b.certified ? fmt::format("proven by interval branch and bound, largest relative gap {:.1e}", worst_gap)
                     : std::string("numeric estimates (not proven)"))
     << ".</p>\n<p>Monte Carlo: " << mc.trials << " trials, "
@@ -315,13 +316,16 @@ std::string bounds_section(const VerificationReport& r) {
     << "</p>\n"
     << table(table_row({"constant", "lower (attained)", "upper (certified)", "gap", "argmax", "NLopt", "Ipopt", "boxes"}, true) +
              bound_row(b, "M0 = sup ||M⁻¹||", b.M0, b.M0_bracket) + bound_row(b, "B = sup ||∂A/∂v||", b.B, b.B_bracket) +
-             bound_row(b, "L_joint", b.L_joint, b.L_joint_bracket))
+             bound_row(b, "L_joint", b.L_joint, b.L_joint_bracket) +
+             (b.scaled() ? bound_row(b, "L_T = sup ||T Φ T⁻¹||", b.L_scaled, b.L_scaled_bracket) : std::string()))
     << "<p style='font-size:90%'><i>lower</i>: a value attained at a point (a lower bound of the "
        "supremum). <i>upper</i>: proven to be above the supremum over the whole joint domain. <i>gap</i>: "
        "(upper − lower)/upper. <i>boxes</i>: interval boxes of joint positions the branch and bound examined. "
        "<i>NLopt</i>, <i>Ipopt</i>: the two optimisers' attained values.</p>\n"
     << "<p>||F|| = " << number(b.F_norm) << ", L_paper = M0 (B + ||F||) = " << number(b.L_paper)
-    << ". The certificate uses L = " << number(d.L_used) << " (" << d.L_source << ").</p>\n";
+    << ". The certificate uses L = " << number(d.selected().observer.L) << " ("
+    << (d.certificate == CertificateKind::scaled ? "L_T, diagonal scaling T = diag" + format_vector(b.scaling) : d.L_source)
+    << ").</p>\n";
   return h.str();
 }
 

@@ -294,7 +294,10 @@ std::string format_bounds(const Design& d) {
   }
   out << fmt::format("  {:<8} {:>14.7f}\n", "||F||", b.F_norm);
   out << fmt::format("  {:<8} {:>14.7f}   = M0 (B + ||F||)\n", "L_paper", b.L_paper);
-  out << fmt::format("  L used: {:.7g} ({})\n", d.L_used, d.L_source);
+  if (d.certificate == CertificateKind::scaled)
+    out << fmt::format("  L used: {:.7g} (L_T, diagonally scaled; L_joint = {:.7g})\n", d.selected().observer.L, d.L_used);
+  else
+    out << fmt::format("  L used: {:.7g} ({})\n", d.L_used, d.L_source);
   return out.str();
 }
 
