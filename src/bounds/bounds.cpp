@@ -296,7 +296,7 @@ Eigen::VectorXd scaling_on(const Model& model, const Eigen::VectorXd& V, const s
                            double& chosen_on) {
   std::vector<Eigen::MatrixXd> matrices;
   Eigen::VectorXd t = Eigen::VectorXd::Ones(model.dof());
-  for (int iteration = 0; iteration < 20; ++iteration) {
+  for (int iteration = 0; iteration < 20; ++iteration) {  // two to five on the arms measured; 20 bounds the work
     bool added = false;
     for (const Eigen::VectorXd& q : configurations) {
       int choice = 0;
