@@ -1,5 +1,6 @@
 #include "obsgain/bounds/bounds.hpp"
 
+#include "obsgain/bounds/perturbation_polytope.hpp"
 #include "obsgain/model/dynamics.hpp"
 #include "obsgain/numerics/optimize.hpp"
 
@@ -278,17 +279,6 @@ BoundMaximum lipschitz_search(const Model& model, const Eigen::VectorXd& velocit
   return result;
 }
 
-// Φ = M⁻¹(J(q, w) D + F) of one choice (vertex in the low n bits, pattern in the next n).
-Eigen::MatrixXd lipschitz_matrix(const Model& model, const Eigen::VectorXd& q, const Eigen::VectorXd& velocity_bounds,
-                                 int choice) {
-  const int n = model.dof();
-  const auto c = static_cast<unsigned>(choice);
-  std::vector<Eigen::MatrixXd> N;
-  coriolis_tensors(model, q, N);
-  const Eigen::MatrixXd X = coriolis_jacobian(N, vertex(velocity_bounds, c & ((1u << n) - 1))) * pattern(n, c >> n).asDiagonal();
-  return factor_inertia(model, q).solve(X + model.friction);
-}
-
 // The T that minimises the maximum of ||T Φ T⁻¹|| over the configurations, every vertex and pattern at each: T is
 // chosen on the maximising matrices found so far, and each configuration's maximising choice under that T joins
 // them, until none beats the maximum T was chosen on.
@@ -302,7 +292,9 @@ Eigen::VectorXd scaling_on(const Model& model, const Eigen::VectorXd& V, const s
       int choice = 0;
       const double value = joint_lipschitz_maximum(model, q, V, t, choice);
       if (matrices.empty() || value > chosen_on * (1.0 + 1e-9)) {
-        matrices.push_back(lipschitz_matrix(model, q, V, choice));
+        const auto c = static_cast<unsigned>(choice);  // vertex in the low n bits, pattern in the next n
+        const int n = model.dof();
+        matrices.push_back(perturbation_matrix(model, q, vertex(V, c & ((1u << n) - 1)), pattern(n, c >> n)));
         added = true;
       }
       chosen_on = std::max(chosen_on, value);

@@ -371,16 +371,17 @@ double choices_upper(const LipschitzTerms& t, const BoxDynamics& d, const Veloci
 // (||J|| + ||F||) / λmin(M) can be the tighter: where the cheap bound is far above the value attained, both are
 // taken.
 // With a scaling T, every bound below is of ||T Φ S|| (the inertia route's of ||Φ|| times the stretch), and
-// `restored` turns it into a bound of ||T Φ T⁻¹||.
+// `restored` turns it into a bound of ||T Φ T⁻¹||. Without one both factors are 1 and the products exact.
 BoxBound BoxBounds::joint_lipschitz(const std::vector<Interval>& box, double lower) const {
-  const double restore = scaling_ ? scaling_->restore : 1.0, stretch = scaling_ ? scaling_->stretch : 1.0;
+  const DiagonalScaling none{};
+  const DiagonalScaling& scaling = scaling_ ? *scaling_ : none;
   const auto restored = [&](BoxBound bound) {
-    if (scaling_) bound.upper = (Interval(bound.upper) * Interval(restore)).upper();
+    bound.upper = (Interval(bound.upper) * Interval(scaling.restore)).upper();
     return bound;
   };
   const auto by_inertia_floor = [&](const BoxDynamics& d, const std::vector<TaylorMatrix>& J) {
     BoxBound bound = lipschitz_by_inertia_floor(model_, d, J, vertices_, half_, count_);
-    if (scaling_) bound.upper = (Interval(bound.upper) * Interval(stretch)).upper();
+    bound.upper = (Interval(bound.upper) * Interval(scaling.stretch)).upper();
     return bound;
   };
   const BoxDynamics d = box_dynamics(model_, search_, box, true);

@@ -89,41 +89,33 @@ std::optional<CertifiedBounds> certify_bounds(const Model& model, const BoundRep
   // for the paper's Lipschitz constant; what a bound leaves unused passes to the next.
   const bool joint = options.focus == LipschitzFocus::joint;
   BudgetShares budget(options);
-  const std::string request = search_request(model, V, options);
-  const auto search = [&](double share, const char* name, const auto& bound, const auto& value, const Eigen::VectorXd& seed) {
-    const BoundBracket b = journaled_search(options, request, budget.next(share, name),
+  // A request names the scaling T of L_T (empty for the others): a checkpoint of another T is not taken.
+  const auto search = [&](double share, const char* name, const auto& bound, const auto& value, const Eigen::VectorXd& seed,
+                          const Eigen::VectorXd& scaling = {}) {
+    const BoundBracket b = journaled_search(options, search_request(model, V, options, scaling), budget.next(share, name),
                                             [&](const BranchAndBoundOptions& o) { return search_joints(s, bound, value, seed, o); });
     budget.spent(b);
     return b;
   };
   CertifiedBounds result;
-  const auto run_L = [&](double share) {
-    result.L_joint = search(share, "L_joint", [&](const auto& box, double lower) { return boxes.joint_lipschitz(box, lower); },
-                            [&](const Eigen::VectorXd& q) { return max_joint_lipschitz_norm(model, q, V); }, numeric.L_joint.q);
+  // L_joint (scaling empty) or L_T.
+  const auto lipschitz = [&](double share, const char* name, const BoxBounds& b, const Eigen::VectorXd& scaling,
+                             const Eigen::VectorXd& seed) {
+    return search(share, name, [&](const auto& box, double lower) { return b.joint_lipschitz(box, lower); },
+                  [&](const Eigen::VectorXd& q) { return max_joint_lipschitz_norm(model, q, V, scaling); }, seed, scaling);
   };
-  const auto run_L_scaled = [&](double share) {
-    const BoxBounds scaled_boxes(model, s, V, numeric.scaling);
-    const Eigen::VectorXd& t = numeric.scaling;
-    result.L_scaled = journaled_search(
-        options, search_request(model, V, options, t), budget.next(share, "L_scaled"), [&](const BranchAndBoundOptions& o) {
-          return search_joints(s, [&](const auto& box, double lower) { return scaled_boxes.joint_lipschitz(box, lower); },
-                               [&](const Eigen::VectorXd& q) { return max_joint_lipschitz_norm(model, q, V, t); },
-                               numeric.L_scaled.q, o);
-        });
-    budget.spent(*result.L_scaled);
+  const BoxBounds scaled_boxes(model, s, V, numeric.scaling);
+  const auto run_L = [&](double joint_share, double scaled_share) {
+    result.L_joint = lipschitz(joint_share, "L_joint", boxes, {}, numeric.L_joint.q);
+    if (numeric.scaled())
+      result.L_scaled = lipschitz(scaled_share, "L_scaled", scaled_boxes, numeric.scaling, numeric.L_scaled.q);
   };
-  if (joint && numeric.scaled()) {
-    run_L(0.45);
-    run_L_scaled(0.8);
-  } else if (joint) {
-    run_L(0.9);
-  }
+  if (joint) run_L(numeric.scaled() ? 0.45 : 0.9, 0.8);
   result.M0 = search(joint ? 0.6 : 0.5, "M0", [&](const auto& box, double) { return boxes.inverse_inertia(box); },
                      [&](const Eigen::VectorXd& q) { return inverse_inertia_norm(model, q); }, numeric.M0.q);
   result.B = search(joint ? 1.0 : 0.8, "B", [&](const auto& box, double lower) { return boxes.jacobian(box, lower); },
                     [&](const Eigen::VectorXd& q) { return max_coriolis_jacobian_norm(model, q, V); }, numeric.B.q);
-  if (!joint) run_L(1.0);
-  if (!joint && numeric.scaled()) run_L_scaled(1.0);
+  if (!joint) run_L(1.0, 1.0);
   return result;
 }
 
