@@ -41,6 +41,7 @@ double norm_upper(const Eigen::VectorXd& d) {
 // P - μ [[I, 0], [0, 0]] ⪰ 0: a floating estimate, shrunk, then checked.
 struct EllipsoidGeometry {
   double qq = 0.0, qv = 0.0, vv = 0.0, smallest = 0.0;  // λmax(P_qq), ||P_qv||, λmax(P_vv), λmin(P)
+  double measurement = 0.0;  // λmax(GᵀPG), G = (k1 I, k2 I): what a measurement error η costs in V
   double position_axis2 = kInfinity, velocity_axis2 = kInfinity;
 };
 
@@ -58,9 +59,23 @@ double schur_lower(const Eigen::MatrixXd& P, int n, bool positions) {
   return 0.0;
 }
 
-EllipsoidGeometry ellipsoid_geometry(const Eigen::MatrixXd& P) {
+// GᵀPG = k1² P_qq + k1 k2 (P_qv + P_vq) + k2² P_vv in interval arithmetic: its terms nearly cancel when P is
+// correlated, so the rounding of forming it must be counted.
+double measurement_gain_upper(const Eigen::MatrixXd& P, double k1, double k2) {
+  const int n = static_cast<int>(P.rows() / 2);
+  const Interval a(k1), b(k2);
+  IntervalMatrix S(n, n);
+  for (int j = 0; j < n; ++j)
+    for (int i = j; i < n; ++i)
+      S(i, j) = square(a) * Interval(P(i, j)) + a * b * (Interval(P(i, n + j)) + Interval(P(n + i, j))) +
+                square(b) * Interval(P(n + i, n + j));
+  return largest_eigenvalue_upper_over(S);
+}
+
+EllipsoidGeometry ellipsoid_geometry(const Eigen::MatrixXd& P, double k1, double k2) {
   const int n = static_cast<int>(P.rows() / 2);
   EllipsoidGeometry g;
+  g.measurement = measurement_gain_upper(P, k1, k2);
   g.qq = largest_eigenvalue_upper(P.topLeftCorner(n, n));
   g.qv = spectral_norm_upper(P.topRightCorner(n, n));
   g.vv = largest_eigenvalue_upper(P.bottomRightCorner(n, n));
@@ -135,14 +150,17 @@ Eigen::VectorXd measurement_error_bound(const DeploymentOptions& o, const Eigen:
 }
 
 SampledErrorBounds sampled_error_bounds(const CertifiedObserver& o, double model_gain, double d_norm) {
-  const EllipsoidGeometry g = ellipsoid_geometry(o.P);
+  const EllipsoidGeometry g = ellipsoid_geometry(o.P, o.k1, o.k2);
   const UpwardRounding upward;
   using boost::numeric::sqrt;
   const Interval dn(d_norm);
   const Interval a = Interval(o.k1) * dn, b = (Interval(o.k2) + Interval(model_gain)) * dn;
-  // max of wᵀPw over ||w_q|| <= a, ||w_v|| <= b: the cross term is at most ||P_qv|| a b by Cauchy–Schwarz.
-  const Interval level =
-      sqrt(Interval(g.qq) * square(a) + 2.0 * Interval(g.qv) * a * b + Interval(g.vv) * square(b)) / Interval(o.gamma);
+  // Two bounds of ||P^½ w||, w = (k1 η, k2 η + ψ), each proven; the smaller is kept (docs/theory.md, "Deployment").
+  // Blockwise: over ||w_q|| <= a, ||w_v|| <= b, the cross term at most ||P_qv|| a b by Cauchy–Schwarz.
+  const Interval blockwise = sqrt(Interval(g.qq) * square(a) + 2.0 * Interval(g.qv) * a * b + Interval(g.vv) * square(b));
+  // Structured: ||P^½ (k1, k2) η|| + ||P^½ (0, ψ)||, which keeps the cancellation between k1 η and k2 η.
+  const Interval structured = sqrt(Interval(g.measurement)) * dn + sqrt(Interval(g.vv)) * Interval(model_gain) * dn;
+  const Interval level = Interval(std::min(blockwise.upper(), structured.upper())) / Interval(o.gamma);
   SampledErrorBounds s;
   s.disturbance_position = a.upper();
   s.disturbance_velocity = b.upper();

@@ -35,6 +35,25 @@ double spectral_norm_upper(const Eigen::MatrixXd& B) {
 
 namespace obsgain {
 
+double largest_eigenvalue_upper_over(const IntervalMatrix& X) {
+  const Eigen::Index n = X.rows();
+  Eigen::MatrixXd middle(n, n);
+  for (Eigen::Index j = 0; j < n; ++j)
+    for (Eigen::Index i = j; i < n; ++i) middle(i, j) = middle(j, i) = 0.5 * (X(i, j).lower() + X(i, j).upper());
+  const double top = largest_eigenvalue_upper(middle);  // in the default rounding, as the solver expects
+  const UpwardRounding upward;
+  // Each entry of X - middle lies within max(upper - middle, middle - lower), computed upwards.
+  Interval radius2(0.0);
+  for (Eigen::Index j = 0; j < n; ++j)
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const Interval& x = X(std::max(i, j), std::min(i, j));
+      const double r = std::max((Interval(x.upper()) - Interval(middle(i, j))).upper(),
+                                (Interval(middle(i, j)) - Interval(x.lower())).upper());
+      radius2 += square(Interval(r));
+    }
+  return (Interval(top) + sqrt(radius2)).upper();
+}
+
 bool positive_definite_proven(const IntervalMatrix& X) {
   const Eigen::Index n = X.rows();
   // D X D with D_ii = 2^-e_i, X_ii ~ 4^e_i: a congruence, so definiteness is unchanged, and exact in binary.

@@ -90,4 +90,20 @@ TEST(IntervalCholesky, ProvesDefinitenessOfEveryMatrixInside) {
   EXPECT_FALSE(obsgain::positive_definite_proven(X));
 }
 
+// Every symmetric member of [[2 ± 0.1, 1 ± 0.1], [1 ± 0.1, 2]] has λmax <= (4.1 + sqrt(0.01 + 4 (1.1)²)) / 2 = 3.1511,
+// attained at the corner; Weyl's bound is 3 + ||radius||_F = 3 + sqrt(0.03) = 3.1732.
+TEST(IntervalEigenvalue, LargestEigenvalueBoundsEveryMatrixInside) {
+  obsgain::IntervalMatrix X(2, 2);
+  X << obsgain::Interval(1.9, 2.1), obsgain::Interval(0.9, 1.1), obsgain::Interval(0.9, 1.1), obsgain::Interval(2.0);
+  const double bound = obsgain::largest_eigenvalue_upper_over(X);
+  EXPECT_GE(bound, (4.1 + std::sqrt(0.01 + 4 * 1.21)) / 2);
+  EXPECT_NEAR(bound, 3.0 + std::sqrt(0.03), 1e-10);
+  // Terms of 1e8 that cancel to about 1 (the measurement gain of a correlated P): the rounding is counted, so the
+  // bound stays above the exact value 1 by the rounding of the terms only.
+  X << obsgain::Interval(1e8) - obsgain::Interval(1e8 - 1.0), obsgain::Interval(0.0), obsgain::Interval(0.0),
+      obsgain::Interval(0.5);
+  EXPECT_GE(obsgain::largest_eigenvalue_upper_over(X), 1.0);
+  EXPECT_LE(obsgain::largest_eigenvalue_upper_over(X), 1.0 + 1e-6);
+}
+
 }  // namespace

@@ -7,7 +7,7 @@
 // (quantisation, plus the interpolation error of a C² signal), which enters the error equation as a bounded
 // disturbance w = (k1 η, k2 η + ψ), |η_i| <= d_i, ||ψ|| <= M0 C_q ||d|| (the model evaluated at the measured
 // position). The design's quadratic certificate V = eᵀPe then gives, with W = sqrt(V),
-//   W(t) <= e^{-γt} W(0) + R,   R = sqrt(max wᵀPw) / γ,
+//   W(t) <= e^{-γt} W(0) + R,   R = max ||P^½ w|| / γ (bounded blockwise, or through w = (k1, k2) η + (0, ψ)),
 //   ||e(t)|| <= k e^{-γt} ||e(0)|| + R / sqrt(λmin(P)),
 // and the ultimate ellipsoid W <= R bounds ||e_q|| by R sqrt(λmax((P⁻¹)_qq)) and ||e_v|| by R sqrt(λmax((P⁻¹)_vv)).
 #pragma once

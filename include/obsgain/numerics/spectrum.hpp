@@ -17,6 +17,9 @@ double smallest_eigenvalue_lower(const Eigen::MatrixXd& S);
 double spectral_norm_upper(const Eigen::MatrixXd& B);
 
 using IntervalMatrix = Eigen::Matrix<Interval, Eigen::Dynamic, Eigen::Dynamic>;
+// The largest eigenvalue of every symmetric matrix inside X (read from its lower triangle), bounded above: Weyl's
+// inequality on X's midpoint and the Frobenius norm of its radius.
+double largest_eigenvalue_upper_over(const IntervalMatrix& X);
 // True only if every symmetric matrix inside X is positive definite: a Cholesky factorisation in interval arithmetic
 // (outward rounding) whose pivots stay positive, after a diagonal scaling by powers of two (exact). X is read as
 // symmetric from its lower triangle.
