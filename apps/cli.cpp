@@ -238,7 +238,7 @@ DesignRequest to_design_request(const DesignArguments& a, const Model& model) {
     };
   if (!a.quiet && isatty(STDERR_FILENO) != 0) o.certified_bounds.progress = print_search_progress;
   o.lipschitz = a.lipschitz == "paper" ? LipschitzKind::paper : LipschitzKind::joint;
-  if (!a.certificate.empty()) o.certificate = certificate_kind(a.certificate);
+  if (!a.certificate.empty()) o.certificate = certificate_kind(a.certificate).value();  // CLI11 checked the name
   if (a.polytope_cells) o.polytope.cells = *a.polytope_cells;
   o.bound_method = a.bounds == "numeric" ? BoundMethod::numeric : BoundMethod::certified;
   if (!a.L.empty()) o.L_override = parse_number("L", a.L);

@@ -55,7 +55,7 @@ void take_certificate(py::dict& a, DesignOptions& o) {
   o.lipschitz = choice(a, "lipschitz", {"joint", "paper"}) == "paper" ? LipschitzKind::paper : LipschitzKind::joint;
   o.L_override = take<double>(a, "L");
   // Not given: tight, or scaled where it is better (DesignOptions::certificate).
-  if (a.contains("certificate")) o.certificate = certificate_kind(choice(a, "certificate", {"tight", "scaled", "paper", "polytopic"}));
+  if (a.contains("certificate")) o.certificate = certificate_kind(choice(a, "certificate", {"tight", "scaled", "paper", "polytopic"})).value();
   o.polytope.cells = take<int>(a, "polytope_cells").value_or(o.polytope.cells);
   o.bound_method = choice(a, "bounds", {"certified", "numeric"}) == "numeric" ? BoundMethod::numeric : BoundMethod::certified;
   o.certified_bounds.budget_seconds = take<double>(a, "bound_budget").value_or(o.certified_bounds.budget_seconds);

@@ -40,8 +40,11 @@ CertifiedObserver certified_observer(const nlohmann::json& j, const Eigen::Vecto
   const nlohmann::json& d = j.at("design");
   if (!d.at("certified").get<bool>()) throw InputError("the saved design is not certified: nothing to validate");
   CertifiedObserver o;
+  // Designs saved before the certificate was named used the tight one; a name this version does not know is refused.
   const std::string kind = d.value("certificate", j.value("certificate", "tight"));
-  o.certificate = certificate_kind(kind);
+  const std::optional<CertificateKind> certificate = certificate_kind(kind);
+  if (!certificate) throw InputError("design.certificate '" + kind + "' is not one of paper, tight, scaled, polytopic");
+  o.certificate = *certificate;
   o.alpha = d.at("alpha").get<double>();
   o.beta = d.at("beta").get<double>();
   o.theta = d.at("theta").get<double>();

@@ -355,8 +355,9 @@ std::string certificate_section(const VerificationReport& r) {
                                               : "<span class='bad'>Estimate (numeric bounds, not proven)</span>",
                                    o.k, o.gamma) +
                            (d.proven() ? "" : " Not proven: " + escape(d.not_proven_reason) + "."))
-    << (d.tight.lmi_max_eig
-            ? fmt::format(" Tight certificate LMI largest eigenvalue {:.2e} (negative certifies).", *d.tight.lmi_max_eig)
+    << (d.selected().lmi_max_eig
+            ? fmt::format(" The {} certificate's LMI largest eigenvalue {:.2e} (negative certifies).",
+                          to_string(d.certificate), *d.selected().lmi_max_eig)
             : "")
     << "</p>\n";
   return h.str();

@@ -12,10 +12,11 @@ const char* to_string(CertificateKind kind) {
   return "unknown";
 }
 
-CertificateKind certificate_kind(const std::string& name) {
-  for (const CertificateKind kind : {CertificateKind::paper, CertificateKind::scaled, CertificateKind::polytopic})
+std::optional<CertificateKind> certificate_kind(const std::string& name) {
+  for (const CertificateKind kind :
+       {CertificateKind::paper, CertificateKind::tight, CertificateKind::scaled, CertificateKind::polytopic})
     if (name == to_string(kind)) return kind;
-  return CertificateKind::tight;
+  return std::nullopt;
 }
 
 Eigen::MatrixXd per_joint_matrix(const Eigen::Matrix2d& P2, int dof) {

@@ -205,7 +205,9 @@ ExportedObserver read_exported_observer(const std::string& text) {
   r.expect("certificate");
   const std::string kind = r.word();
   CertifiedObserver& o = e.observer;
-  o.certificate = certificate_kind(kind);
+  const std::optional<CertificateKind> certificate = certificate_kind(kind);
+  if (!certificate) throw InputError("exported observer: certificate '" + kind.substr(0, 40) + "' is not one obsgain writes");
+  o.certificate = *certificate;
   const Eigen::VectorXd g = r.values("observer", 9);
   o.alpha = g(0), o.beta = g(1), o.theta = g(2), o.k1 = g(3), o.k2 = g(4), o.gamma = g(5), o.k = g(6), o.L = g(7);
   o.certified = g(8) != 0.0;

@@ -119,6 +119,11 @@ TEST(MonteCarloApp, DesignFileIsTheWholeTruth) {
   expect_refused("--design " + design + " --robot pendubot", "--robot cannot be given with it", "monte-carlo");
   expect_refused("--design " + design + " --gamma 3", "--gamma cannot be given with it", "monte-carlo");
   EXPECT_EQ(run("monte-carlo", "--design " + design + " --trials 2 --horizon 0.1").exit_code, 0);
+  nlohmann::json renamed = nlohmann::json::parse(read_text(design));
+  ASSERT_EQ(renamed.at("design").at("certificate").get<std::string>(), "scaled");
+  renamed["design"]["certificate"] = "sos";  // not a certificate this version knows: not read as another one
+  expect_refused("--design " + write_temp_file("obsgain_unknown_certificate.json", renamed.dump()) + " --trials 2",
+                 "design.certificate 'sos' is not one of", "monte-carlo");
   std::ofstream(model, std::ios::app) << "\n";  // the same robot, but the file changed: the design may be stale
   expect_refused("--design " + design + " --trials 2", "run design-gains again", "monte-carlo");
 }
@@ -307,6 +312,8 @@ TEST(VerifyBoundsApp, WritesTheReportWithCertifiedBrackets) {
   EXPECT_TRUE(report["comparison"].contains("paper"));
   const std::string html = read_text(out + "/report.html");
   EXPECT_GE(std::count(html.begin(), html.end(), '\n'), 50);
+  // The default design is the scaled one: the LMI line is its own check, not the tight certificate's.
+  EXPECT_NE(html.find("The scaled certificate's LMI largest eigenvalue -"), std::string::npos);
   // Four plots inline; nothing loaded from outside (the SVG namespace URIs load nothing).
   std::size_t svgs = 0;
   for (auto at = html.find("<svg"); at != std::string::npos; at = html.find("<svg", at + 1)) ++svgs;

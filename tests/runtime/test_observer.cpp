@@ -4,6 +4,7 @@
 // malloc to count allocations.
 #include "obsgain/runtime/observer.hpp"
 #include "obsgain/parsers/robots.hpp"
+#include "obsgain/runtime/exported_observer.hpp"
 
 #include <boost/numeric/odeint.hpp>
 #include <gtest/gtest.h>
@@ -285,6 +286,29 @@ TEST(Observer, RefusesBadInputAndKeepsItsState) {
   EXPECT_THROW(Observer(model, gains(-1.0, 1.0, 0.0, Eigen::Vector2d(1, 1))), InputError);
   EXPECT_THROW(Observer(model, gains(1.0, 1.0, 0.0, Eigen::Vector3d(1, 1, 1))), InputError);
   EXPECT_THROW(Observer(model, pendubot_gains(), -1), InputError);
+}
+
+// The exported text reads back bit for bit, certificate included; a certificate name obsgain does not write is
+// refused, not read as another certificate.
+TEST(ExportedObserver, ReadsBackWhatItWroteAndRefusesAnUnknownCertificate) {
+  ExportedObserver e{pendubot(), pendubot_gains(), 1, 1e-3};
+  e.observer.certificate = CertificateKind::polytopic;
+  e.observer.P = Eigen::Matrix4d::Identity();
+  const std::string text = exported_observer_text(e);
+  const ExportedObserver back = read_exported_observer(text);
+  EXPECT_EQ(back.observer.certificate, CertificateKind::polytopic);
+  EXPECT_EQ(back.observer.k2, 138.0 * 138.0);
+  EXPECT_EQ(back.observer.P, e.observer.P);
+  std::string renamed = text;
+  const auto at = renamed.find("polytopic");
+  ASSERT_NE(at, std::string::npos);
+  renamed.replace(at, 9, "quadratic");
+  try {
+    read_exported_observer(renamed);
+    ADD_FAILURE() << "an unknown certificate was read";
+  } catch (const InputError& error) {
+    EXPECT_NE(std::string(error.what()).find("certificate 'quadratic'"), std::string::npos) << error.what();
+  }
 }
 
 void expect_no_allocation(const Model& model, const CertifiedObserver& gains) {

@@ -6,6 +6,7 @@
 
 #include <Eigen/Dense>
 
+#include <optional>
 #include <string>
 
 namespace obsgain {
@@ -16,8 +17,8 @@ namespace obsgain {
 enum class CertificateKind { paper, tight, scaled, polytopic };
 
 const char* to_string(CertificateKind kind);
-// The kind to_string names ("paper", "scaled", "polytopic"); anything else is the tight certificate.
-CertificateKind certificate_kind(const std::string& name);
+// The kind to_string names ("paper", "tight", "scaled", "polytopic"); none for any other name.
+std::optional<CertificateKind> certificate_kind(const std::string& name);
 
 struct CertifiedObserver {
   CertificateKind certificate = CertificateKind::tight;
