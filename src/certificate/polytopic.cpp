@@ -2,10 +2,12 @@
 
 #include "obsgain/model/model.hpp"
 #include "obsgain/numerics/interval.hpp"
+#include "obsgain/numerics/optimize.hpp"
 #include "obsgain/numerics/spectrum.hpp"
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 #include <functional>
 #include <limits>
@@ -22,7 +24,7 @@ constexpr double kNotFound = std::numeric_limits<double>::infinity();
 
 // Where each unknown sits in the solver's y: P's lower triangle (balanced coordinates), one multiplier per entry
 // (i, j) that has a radius in some cell (shared by all cells: the solver's work then grows with the vertices,
-// not with the cells; docs/theory.md), then one last scalar (the slack t, or the condition number κ).
+// not with the cells; docs/theory.md), then one last scalar (the slack t, the condition number κ, or the floor's λmax m).
 struct Layout {
   int n = 0, N = 0;
   std::vector<Entry> p_entries;                 // (a, b), a >= b
@@ -142,16 +144,47 @@ Eigen::VectorXd feasible_start(const Layout& l, const std::vector<LinearMatrixIn
   return y;
 }
 
+// What the SDP minimises (the last unknown): the vertex LMIs' slack t (feasibility); κ with I ≼ P ≼ κ I (the
+// envelope constant k = sqrt(κ)); or, with P ⪰ diag(0, I), the floor's m >= λmax(Kᵀ P K) (floor_block).
+enum class SdpObjective { slack, condition, floor };
+
+// The sampled error floor's weight (docs/theory.md, "Deployment through the same P"): the measurement disturbance is
+// w = G η + (0, ψ) = K (η, ψ / g) with G = (k1 I, k2 I), ||ψ|| <= g ||η||, so ||P^½ w||² <= 2 λmax(Kᵀ P K) ||η||²; with
+// P ⪰ diag(0, I), (P⁻¹)_vv ≼ I and the ultimate velocity error is at most sqrt(2 m) ||d|| / γ. K is divided by k2,
+// in balanced coordinates (P_x = W⁻¹ P W⁻¹: K_x = W K / k2).
+void floor_blocks(const Layout& l, const Eigen::VectorXd& W, double k1, double k2, double model_gain,
+                  std::vector<LinearMatrixInequality>& blocks) {
+  LinearMatrixInequality lower, weight;
+  lower.size = l.N;
+  weight.size = l.N;
+  Eigen::MatrixXd velocities = Eigen::MatrixXd::Zero(l.N, l.N);
+  velocities.bottomRightCorner(l.n, l.n).setIdentity();
+  lower.constant = packed(velocities);
+  Eigen::MatrixXd K = Eigen::MatrixXd::Zero(l.N, l.N);
+  K.topLeftCorner(l.n, l.n).diagonal().setConstant(W(0) * k1 / k2);
+  K.bottomLeftCorner(l.n, l.n).diagonal().setConstant(1.0);
+  K.bottomRightCorner(l.n, l.n).diagonal().setConstant(model_gain / k2);
+  for (std::size_t v = 0; v < l.p_entries.size(); ++v) {
+    const Eigen::MatrixXd E = basis(l.N, l.p_entries[v]);
+    lower.terms.emplace_back(static_cast<int>(v), packed(-E));
+    weight.terms.emplace_back(static_cast<int>(v), packed(K.transpose() * E * K));
+  }
+  weight.terms.emplace_back(l.last, packed(-Eigen::MatrixXd::Identity(l.N, l.N)));
+  blocks.push_back(std::move(lower));
+  blocks.push_back(std::move(weight));
+}
+
 struct Solved {
   SdpResult sdp;
   Layout layout;
   std::vector<LinearMatrixInequality> blocks;
 };
 
-// slack: minimise t with every vertex LMI ≼ t I and I ≼ P_x ≼ cap I. Otherwise: minimise κ with every vertex LMI
-// ≼ 0 and I ≼ P ≼ κ I in original coordinates.
-Solved solve(const PerturbationPolytope& polytope, double k1, double k2, double gamma, bool slack,
-             const PolytopicOptions& options) {
+// slack: minimise t with every vertex LMI ≼ t I and I ≼ P_x ≼ cap I. Otherwise every vertex LMI ≼ 0, and either
+// I ≼ P ≼ κ I in original coordinates, minimising κ, or the floor's normalisation and weight (floor_blocks).
+Solved solve(const PerturbationPolytope& polytope, double k1, double k2, double gamma, SdpObjective objective_kind,
+             const PolytopicOptions& options, double model_gain = 0.0) {
+  const bool slack = objective_kind == SdpObjective::slack;
   Solved s{{}, layout_of(polytope), {}};
   const Layout& l = s.layout;
   const double scale = std::sqrt(k2);
@@ -161,7 +194,10 @@ Solved solve(const PerturbationPolytope& polytope, double k1, double k2, double 
       blocks.push_back(vertex_lmi(l, static_cast<int>(c), balanced_matrix(k1, scale, Phi), polytope.cells[c].radius,
                                   gamma, slack));
   // The slack problem bounds P_x itself; the κ problem bounds P in original coordinates.
-  normalisation(l, slack ? Eigen::VectorXd::Ones(l.N) : balancing(l, k2), !slack, options.condition_cap, blocks);
+  if (objective_kind == SdpObjective::floor)
+    floor_blocks(l, balancing(l, k2), k1, k2, model_gain, blocks);
+  else
+    normalisation(l, slack ? Eigen::VectorXd::Ones(l.N) : balancing(l, k2), !slack, options.condition_cap, blocks);
   Eigen::VectorXd objective = Eigen::VectorXd::Zero(l.size());
   objective(l.last) = -1.0;
   SdpOptions sdp = options.sdp;
@@ -183,7 +219,7 @@ double polytopic_slack(const PerturbationPolytope& polytope, double k1, double k
                        const PolytopicOptions& options) {
   PolytopicOptions feasibility = options;
   feasibility.sdp.enough = [](const Eigen::VectorXd& y) { return y(y.size() - 1) < 0.0; };
-  const Solved s = solve(polytope, k1, k2, gamma, true, feasibility);
+  const Solved s = solve(polytope, k1, k2, gamma, SdpObjective::slack, feasibility);
   // A negative t answers the question even when the solver stopped short of its optimum (numerical trouble, the
   // iteration limit), provided its last y satisfies every block: it started feasible, and this is checked.
   const double t = s.sdp.y(s.layout.last);
@@ -240,11 +276,12 @@ double polytopic_theta_star(const PerturbationPolytope& polytope, double alpha, 
   return bisect(hi, lo, options.relative_tolerance, found);
 }
 
-PolytopicCertificate polytopic_certificate(const PerturbationPolytope& polytope, double k1, double k2, double gamma,
-                                           const PolytopicOptions& options) {
+namespace {
+
+// The solver's P for γ / (1 - rate_margin), rounded, and its proof at γ.
+PolytopicCertificate checked(const PerturbationPolytope& polytope, double k1, double k2, double gamma, const Solved& s) {
   PolytopicCertificate cert;
   cert.gamma = gamma;
-  const Solved s = solve(polytope, k1, k2, gamma / (1.0 - options.rate_margin), false, options);
   if (!s.sdp.solved) {
     cert.status = fmt::format("the SDP solver found no P ({})", s.sdp.status);
     return cert;
@@ -258,6 +295,40 @@ PolytopicCertificate polytopic_certificate(const PerturbationPolytope& polytope,
   cert.k = smallest > 0.0 ? std::sqrt((Interval(largest_eigenvalue_upper(cert.P)) / Interval(smallest)).upper()) : 0.0;
   cert.status = cert.exists ? "every vertex LMI passed the interval Cholesky check"
                             : "the interval check failed: the solver's P does not certify γ";
+  return cert;
+}
+
+}  // namespace
+
+PolytopicCertificate polytopic_certificate(const PerturbationPolytope& polytope, double k1, double k2, double gamma,
+                                           const PolytopicOptions& options) {
+  return checked(polytope, k1, k2, gamma,
+                 solve(polytope, k1, k2, gamma / (1.0 - options.rate_margin), SdpObjective::condition, options));
+}
+
+PolytopicCertificate polytopic_floor_certificate(const PerturbationPolytope& polytope, double k1, double k2,
+                                                 double gamma_low, double gamma_high, double model_gain,
+                                                 const PolytopicOptions& options) {
+  const double margin = 1.0 - options.rate_margin;
+  // Without ψ's column K misses the position directions and the SDP would be unbounded: a floor of 1e-3 k2 keeps
+  // it bounded and changes only which P is chosen, never what is proven.
+  const double weight = std::max(model_gain, 1e-3 * k2);
+  const auto solved_at = [&](double gamma) {
+    return solve(polytope, k1, k2, gamma / margin, SdpObjective::floor, options, weight);
+  };
+  // sqrt(m) / γ: the floor up to the constant factor sqrt(2) ||d|| k2 (floor_blocks); +∞ where no P is found.
+  const auto floor_at = [&](double gamma) {
+    const Solved s = solved_at(gamma);
+    const double m = s.sdp.solved ? s.sdp.y(s.layout.last) : -1.0;
+    return m > 0.0 ? std::sqrt(m) / gamma : kNotFound;
+  };
+  double gamma = gamma_high;
+  if (gamma_high > gamma_low * (1.0 + options.floor_rate_tolerance))
+    gamma = minimize_golden(floor_at, gamma_low, gamma_high, options.floor_rate_tolerance * gamma_high,
+                            options.floor_search_iterations).x;
+  PolytopicCertificate cert = checked(polytope, k1, k2, gamma, solved_at(gamma));
+  cert.status += fmt::format("; P chosen for the sampled error floor, at γ = {:.4g} in [{:.4g}, {:.4g}]", gamma,
+                             gamma_low, gamma_high);
   return cert;
 }
 

@@ -303,11 +303,13 @@ TradeoffPoint least_velocity_error(const GainSearch& search, const Design& base,
 // The deployment of an already chosen design: C_q's bracket, the objective's gain, the certificate, the sweep.
 DeployedDesign deploy(const Model& model, const BoundReport& bounds, const DesignOptions& options,
                       const DeploymentOptions& deployment, const BoundBracket& sensitivity) {
-  const Design base = design_from_bounds(model, bounds, options);
-  if (!base.unfinished.empty()) return {base, std::nullopt};  // no rate, nothing to deploy
   const double model_gain = model_gain_upper(bounds.M0.value, sensitivity.upper);
+  DesignOptions sampled = options;
+  sampled.deployment_model_gain = model_gain;
+  const Design base = design_from_bounds(model, bounds, sampled);
+  if (!base.unfinished.empty()) return {base, std::nullopt};  // no rate, nothing to deploy
   const double d_norm = norm_upper(measurement_error_bound(deployment, bounds.velocity_bounds, deployment.sample_period));
-  const GainSearch search(model, bounds, options, base, model_gain, d_norm);
+  const GainSearch search(model, bounds, sampled, base, model_gain, d_norm);
   DeployedDesign result{base, Deployment{}};
   Deployment& dep = *result.deployment;
   dep.objective = deployment.objective;
@@ -388,8 +390,9 @@ DeployedDesign design_observer(const Model& model, const DesignOptions& options,
   if (deployment.objective == DesignObjective::velocity_error && !options.gamma)
     throw InputError("--objective velocity-error needs --gamma: the rate the design must still certify");
   if (deployment.objective == DesignObjective::velocity_error && options.certificate == CertificateKind::polytopic)
-    throw InputError("--objective velocity-error needs --certificate tight or paper: with the polytopic certificate "
-                     "every gain it tries would be a search of SDPs (docs/theory.md)");
+    throw InputError("--objective velocity-error needs --certificate tight, scaled or paper: with the polytopic "
+                     "certificate every gain it tries would be a search of SDPs; give --theta (the tight design's, say) "
+                     "and its P is chosen for the floor (docs/theory.md)");
   const auto start = std::chrono::steady_clock::now();
   const Eigen::VectorXd V = requested_velocity_bounds(model, options);
   std::vector<std::string> warnings;

@@ -124,11 +124,16 @@ CertificateSummary polytopic_summary(const Design& d, const PerturbationPolytope
   }
   s.rate = target ? *target : polytopic_rate(polytope, o.k1, o.k2, po);
   o.gamma = target ? *target : s.rate * (1.0 - d.rate_margin);
-  const PolytopicCertificate cert = polytopic_certificate(polytope, o.k1, o.k2, o.gamma, po);
+  const PolytopicCertificate cert =
+      options.deployment_model_gain
+          ? polytopic_floor_certificate(polytope, o.k1, o.k2, target ? o.gamma : po.floor_lowest_rate_fraction * o.gamma,
+                                        o.gamma, *options.deployment_model_gain, po)
+          : polytopic_certificate(polytope, o.k1, o.k2, o.gamma, po);
   s.status = cert.status;
   if (cert.exists) {
     o.P = cert.P;
     o.k = cert.k;
+    o.gamma = cert.gamma;
   }
   o.certified = cert.exists && o.gamma > 0.0;
   return s;

@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 namespace {
 
 // A one-joint polytope: Φ = centre + δ, |δ| <= radius, in one cell with one vertex.
@@ -75,6 +77,30 @@ TEST(PolytopicCertificate, PendubotProvesFifteenAtTheTightDesignGain) {
             1e-3 * std::sqrt(cert.P(0, 0) * cert.P(3, 3)));
   // The worst frozen Φ caps any quadratic certificate at 24.4: past it the check must fail.
   EXPECT_FALSE(obsgain::polytopic_check(polytope, theta, theta * theta, 24.5, cert.P, cert.multipliers));
+}
+
+// The floor objective's own measure, sqrt(λmax(Kᵀ P K) λmax((P⁻¹)_vv)) / γ with K = [[k1, 0], [k2, g]]: scale-free.
+double floor_measure(const Eigen::MatrixXd& P, double k1, double k2, double g, double gamma) {
+  Eigen::Matrix2d K;
+  K << k1, 0.0, k2, g;
+  const double weight = Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(K.transpose() * P * K).eigenvalues().maxCoeff();
+  return std::sqrt(weight * P.inverse()(1, 1)) / gamma;
+}
+
+// One joint, |Φ| <= L: the P chosen for the floor is proven, at a rate inside the range asked, and its floor is no
+// larger than that of the P chosen for k at the same rate (the two SDPs share the LMIs and differ in the objective).
+// Measured: γ 29.9, floor measures 648.5 and 663.9, k 159.7 and 154.6 (one joint leaves P little freedom).
+TEST(PolytopicCertificate, TheFloorObjectiveChoosesAProvenPWithTheSmallerFloor) {
+  const double theta = 135.86, k1 = theta, k2 = theta * theta, g = 2254.19;
+  const obsgain::PerturbationPolytope polytope = scalar_polytope(0.0, 43.3474784);
+  const obsgain::PolytopicCertificate floor = obsgain::polytopic_floor_certificate(polytope, k1, k2, 10.0, 30.0, g);
+  ASSERT_TRUE(floor.exists) << floor.status;
+  EXPECT_GE(floor.gamma, 10.0);
+  EXPECT_LE(floor.gamma, 30.0);
+  const obsgain::PolytopicCertificate condition = obsgain::polytopic_certificate(polytope, k1, k2, floor.gamma);
+  ASSERT_TRUE(condition.exists) << condition.status;
+  EXPECT_LE(floor_measure(floor.P, k1, k2, g, floor.gamma), floor_measure(condition.P, k1, k2, g, floor.gamma)) << floor.gamma;
+  EXPECT_LE(condition.k, floor.k * (1.0 + 1e-6));  // and the other way round for k
 }
 
 TEST(IntervalCholesky, ProvesDefinitenessOfEveryMatrixInside) {

@@ -24,6 +24,13 @@ struct PolytopicOptions {
   // (on the Pendubot 1e3 and 1e6 give the same answers), narrow enough for DSDP to converge (at 1e4 with 64 cells
   // it stalls).
   double condition_cap = 1e3;
+  // polytopic_floor_certificate: the golden-section search of γ, to this fraction of the upper end, in at most this
+  // many SDPs (about 1 s each on the Pendubot's 32 cells).
+  double floor_rate_tolerance = 0.01;
+  int floor_search_iterations = 14;
+  // A design at a given θ searches γ from this fraction of the largest rate it certifies (on the Pendubot at
+  // θ = 135.86 the floor is least at 0.91 of it; at the largest rate P has no freedom left).
+  double floor_lowest_rate_fraction = 0.25;
   SdpOptions sdp;
 };
 
@@ -47,6 +54,13 @@ double polytopic_theta_star(const PerturbationPolytope& polytope, double alpha, 
 // Among the P the solver finds for γ / (1 - rate_margin), the one with the smallest k; then the proof at γ.
 PolytopicCertificate polytopic_certificate(const PerturbationPolytope& polytope, double k1, double k2, double gamma,
                                            const PolytopicOptions& options = {});
+// For a sampled deployment: among the P the solver finds for a rate γ in [gamma_low, gamma_high] (each over
+// 1 - rate_margin), the P and γ with the smallest ultimate velocity error for a measurement disturbance
+// w = (k1 η, k2 η + ψ), ||ψ|| <= model_gain ||η|| (docs/theory.md, "Deployment through the same P"); then the
+// proof at that γ. The floor itself is bounded by the deployment (deployment/deployment.hpp) from the P chosen.
+PolytopicCertificate polytopic_floor_certificate(const PerturbationPolytope& polytope, double k1, double k2,
+                                                 double gamma_low, double gamma_high, double model_gain,
+                                                 const PolytopicOptions& options = {});
 // The proof alone: do P and the multipliers τ (one per entry (i, j) with a radius in some cell, row-major) satisfy
 // every vertex LMI at γ, in interval arithmetic? And P > 0.
 bool polytopic_check(const PerturbationPolytope& polytope, double k1, double k2, double gamma, const Eigen::MatrixXd& P,

@@ -44,6 +44,10 @@ struct DesignOptions {
   // --optimize-shape) is the tight certificate's best α: every α would cost a search of SDPs.
   PolytopeOptions polytope;
   PolytopicOptions polytopic;
+  // Set by a sampled deployment (deployment/deployment.hpp): M0 C_q, what the model loses per unit of measurement
+  // error. The polytopic certificate then chooses P, and γ up to the rate θ certifies, for the smallest sampled
+  // error floor instead of the smallest k (polytopic_floor_certificate).
+  std::optional<double> deployment_model_gain;
   // Told the start of each phase (bounds, certified bounds, ...); the apps print it on stderr for robots of more
   // than two joints, unless --quiet.
   std::function<void(const std::string&)> progress;
