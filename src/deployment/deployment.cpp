@@ -377,6 +377,42 @@ DeployedDesign deploy_best(const Model& model, const BoundReport& bounds, const 
   return floor(b) < floor(a) ? b : a;
 }
 
+// The velocity-error objective with the polytopic certificate: a search of SDPs at every gain would take minutes, so
+// the norm-bound search chooses the gain, and at that gain the polytopic P and its rate (at least the target, up to
+// the largest θ proves) are chosen for the floor. The lower of the two floors is kept, and the choice is said.
+DeployedDesign deploy_polytopic(const Model& model, const BoundReport& bounds, const DesignOptions& options,
+                                const DeploymentOptions& deployment, const BoundBracket& sensitivity) {
+  DesignOptions norm_bound = options;
+  norm_bound.certificate.reset();
+  DeployedDesign searched = deploy_best(model, bounds, norm_bound, deployment, sensitivity);
+  const CertifiedObserver& gain = searched.design.selected().observer;
+  if (!searched.deployment || !gain.certified) return searched;
+  DesignOptions at = options;
+  at.gamma.reset();
+  at.theta = gain.theta;
+  at.alpha = gain.alpha;
+  at.beta = gain.beta;
+  at.optimize_shape = false;
+  at.polytopic.floor_lowest_rate = *options.gamma;
+  DeploymentOptions rate = deployment;
+  rate.objective = DesignObjective::rate;
+  DeployedDesign polytopic = deploy(model, bounds, at, rate, sensitivity);
+  const CertifiedObserver& chosen = polytopic.design.selected().observer;
+  const double floor = polytopic.deployment && chosen.certified && chosen.gamma >= *options.gamma
+                           ? polytopic.deployment->certificate.bounds.velocity_norm
+                           : kInfinity;
+  const double norm_bound_floor = searched.deployment->certificate.bounds.velocity_norm;
+  DeployedDesign& kept = floor < norm_bound_floor ? polytopic : searched;
+  kept.deployment->objective = DesignObjective::velocity_error;
+  kept.design.target_gamma = options.gamma;
+  kept.design.notes.push_back(
+      fmt::format("velocity-error objective: the gain θ = {:.6g} from the {} certificate's search; at it the polytopic P "
+                  "certifies an ultimate velocity error of {:.4g} rad/s, the {} certificate {:.4g}: the {} is used",
+                  gain.theta, to_string(searched.design.certificate), floor, to_string(searched.design.certificate),
+                  norm_bound_floor, floor < norm_bound_floor ? "polytopic P" : "norm-bound certificate"));
+  return kept;
+}
+
 }  // namespace
 
 DeployedDesign design_observer(const Model& model, const DesignOptions& options,
@@ -389,10 +425,6 @@ DeployedDesign design_observer(const Model& model, const DesignOptions& options,
     throw InputError("--sample-period: the sampled certificate needs C_q on intervals, but " + why);
   if (deployment.objective == DesignObjective::velocity_error && !options.gamma)
     throw InputError("--objective velocity-error needs --gamma: the rate the design must still certify");
-  if (deployment.objective == DesignObjective::velocity_error && options.certificate == CertificateKind::polytopic)
-    throw InputError("--objective velocity-error needs --certificate tight, scaled or paper: with the polytopic "
-                     "certificate every gain it tries would be a search of SDPs; give --theta (the tight design's, say) "
-                     "and its P is chosen for the floor (docs/theory.md)");
   const auto start = std::chrono::steady_clock::now();
   const Eigen::VectorXd V = requested_velocity_bounds(model, options);
   std::vector<std::string> warnings;
@@ -402,7 +434,10 @@ DeployedDesign design_observer(const Model& model, const DesignOptions& options,
     options.progress(fmt::format("deployment: position sensitivity C_q, interval branch and bound, budget {:g} s",
                                  sensitivity.budget_seconds));
   const auto C_q = certify_position_sensitivity(model, V, deployment.acceleration_bounds, sensitivity);
-  DeployedDesign result = deploy_best(model, bounds, options, deployment, *C_q);
+  DeployedDesign result =
+      deployment.objective == DesignObjective::velocity_error && options.certificate == CertificateKind::polytopic
+          ? deploy_polytopic(model, bounds, options, deployment, *C_q)
+          : deploy_best(model, bounds, options, deployment, *C_q);
   result.design.warnings.insert(result.design.warnings.begin(), warnings.begin(), warnings.end());
   result.design.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;

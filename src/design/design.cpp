@@ -126,8 +126,10 @@ CertificateSummary polytopic_summary(const Design& d, const PerturbationPolytope
   o.gamma = target ? *target : s.rate * (1.0 - d.rate_margin);
   const PolytopicCertificate cert =
       options.deployment_model_gain
-          ? polytopic_floor_certificate(polytope, o.k1, o.k2, target ? o.gamma : po.floor_lowest_rate_fraction * o.gamma,
-                                        o.gamma, *options.deployment_model_gain, po)
+          ? polytopic_floor_certificate(
+                polytope, o.k1, o.k2,
+                target ? o.gamma : std::max(po.floor_lowest_rate_fraction * o.gamma, po.floor_lowest_rate), o.gamma,
+                *options.deployment_model_gain, po)
           : polytopic_certificate(polytope, o.k1, o.k2, o.gamma, po);
   s.status = cert.status;
   if (cert.exists) {

@@ -405,8 +405,6 @@ TEST(DeploymentApps, RefusesIncompleteOrBadDeployments) {
   expect_refused("--gamma 1.27 --sample-period 0.001 --encoder-counts 4096 --acceleration-bounds -5", "A1 = -5");
   expect_refused("--design " + write_temp_file("empty_design.json", "{}") + " --sample-period 0.001",
                  "--sample-period cannot be given with it", "monte-carlo");
-  expect_refused("--gamma 1.27 --certificate polytopic --sample-period 0.001 --encoder-counts 4096 "
-                 "--acceleration-bounds 200 --objective velocity-error", "needs --certificate tight, scaled or paper");
   expect_refused("--gamma 1.27 --certificate polytopic --polytope-cells 0", "--polytope-cells = 0");
 }
 

@@ -234,23 +234,26 @@ TEST(Deployment, MonteCarloWithTheDeployedObserverHoldsAndCatchesATooSmallCertif
   EXPECT_GT(broken.envelope_violations + broken.lyapunov_violations, 0);
 }
 
-// At θ = 135.86 (the tight velocity-error design's gain), a sampled deployment chooses the polytopic P for its
-// floor: a lower certified ‖v̂ − v‖ than the tight certificate's P at the same gains (an independent method: the
-// bounded-real lemma), at a rate between the target and the largest the polytope proves, and Monte Carlo of the
-// deployed class stays inside its envelope and Lyapunov level. 16 cells (32 by default) keep it to 16 s; measured:
-// 0.554 rad/s at γ = 48.3 (tight: 0.652 at 39.8).
+// The velocity-error objective with the polytopic certificate: the norm-bound search's gain (θ = 135.86, the tight
+// certificate's), and at it the polytopic P chosen for its floor: a lower certified ‖v̂ − v‖ than the tight
+// certificate's P at the same gains (an independent method: the bounded-real lemma), at a rate between the target
+// and the largest the polytope proves, and Monte Carlo of the deployed class stays inside its envelope and Lyapunov
+// level. 16 cells (32 by default) keep it to 16 s; measured: 0.554 rad/s at γ = 48.3 (tight: 0.652 at 39.8).
 TEST(Deployment, APolytopicPChosenForTheFloorBeatsTheTightPAtTheSameGains) {
   const Model model = pendubot();
+  const DeployedDesign tight = deployed(1e-3, 4096, DesignObjective::velocity_error);
   DesignOptions o;
-  o.theta = 135.86;
-  o.certificate = CertificateKind::tight;
-  const DeployedDesign tight = design_observer(model, o, pendubot_deployment(1e-3, 4096));
+  o.gamma = 1.27;
   o.certificate = CertificateKind::polytopic;
   o.polytope.cells = 16;
-  const DeployedDesign polytopic = design_observer(model, o, pendubot_deployment(1e-3, 4096));
+  DeploymentOptions d = pendubot_deployment(1e-3, 4096);
+  d.objective = DesignObjective::velocity_error;
+  const DeployedDesign polytopic = design_observer(model, o, d);
   ASSERT_EQ(polytopic.design.certificate, CertificateKind::polytopic) << polytopic.design.selected().status;
   const CertifiedObserver& p = polytopic.design.selected().observer;
   ASSERT_TRUE(p.certified);
+  EXPECT_EQ(p.theta, tight.design.selected().observer.theta);
+  EXPECT_EQ(polytopic.deployment->objective, DesignObjective::velocity_error);
   EXPECT_GT(p.gamma, 0.5 * polytopic.design.selected().rate);
   EXPECT_LT(p.gamma, polytopic.design.selected().rate);
   const double floor = polytopic.deployment->certificate.bounds.velocity_norm;

@@ -31,6 +31,8 @@ struct PolytopicOptions {
   // A design at a given θ searches γ from this fraction of the largest rate it certifies (on the Pendubot at
   // θ = 135.86 the floor is least at 0.91 of it; at the largest rate P has no freedom left).
   double floor_lowest_rate_fraction = 0.25;
+  // ... and never below this rate (the target a velocity-error deployment must still certify).
+  double floor_lowest_rate = 0.0;
   SdpOptions sdp;
 };
 

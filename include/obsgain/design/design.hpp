@@ -97,7 +97,7 @@ struct Design {
   std::optional<CertificateSummary> scaled;     // when the bounds kept a diagonal scaling (bounds.scaling) for L_joint
   std::optional<CertificateSummary> polytopic;  // --certificate polytopic: its result, even when it fell back
   std::optional<PolytopeSummary> polytope;
-  std::vector<std::string> notes;     // what loading the model decided (chain, lumped bodies, armature)
+  std::vector<std::string> notes;     // what loading the model (chain, lumped bodies, armature) and the search decided
   std::vector<std::string> warnings;
   // The certificate is a proof only if every bound it uses is proven: certified bounds, or an L given by the
   // user (whose responsibility it then is). Otherwise the design is an estimate, and this says why.
