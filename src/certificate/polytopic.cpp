@@ -145,7 +145,7 @@ Eigen::VectorXd feasible_start(const Layout& l, const std::vector<LinearMatrixIn
 }
 
 // What the SDP minimises (the last unknown): the vertex LMIs' slack t (feasibility); κ with I ≼ P ≼ κ I (the
-// envelope constant k = sqrt(κ)); or, with P ⪰ diag(0, I), the floor's m >= λmax(Kᵀ P K) (floor_block).
+// envelope constant k = sqrt(κ)); or, with P ⪰ diag(0, I), the floor's m >= λmax(Kᵀ P K) (floor_blocks).
 enum class SdpObjective { slack, condition, floor };
 
 // The sampled error floor's weight (docs/theory.md, "Deployment through the same P"): the measurement disturbance is
@@ -310,8 +310,8 @@ PolytopicCertificate polytopic_floor_certificate(const PerturbationPolytope& pol
                                                  double gamma_low, double gamma_high, double model_gain,
                                                  const PolytopicOptions& options) {
   const double margin = 1.0 - options.rate_margin;
-  // Without ψ's column K misses the position directions and the SDP would be unbounded: a floor of 1e-3 k2 keeps
-  // it bounded and changes only which P is chosen, never what is proven.
+  // Without ψ's column K misses the position directions and the SDP would be unbounded: a weight of at least
+  // 1e-3 k2 keeps it bounded and changes only which P is chosen, never what is proven.
   const double weight = std::max(model_gain, 1e-3 * k2);
   const auto solved_at = [&](double gamma) {
     return solve(polytope, k1, k2, gamma / margin, SdpObjective::floor, options, weight);
