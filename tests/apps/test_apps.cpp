@@ -379,8 +379,8 @@ TEST(DeploymentApps, DesignGainsWritesTheDeploymentObjectAndExports) {
 }
 
 TEST(DeploymentApps, APeriodAboveTheLimitOrATolerancePastReachIsRefused) {
-  // The rate design (scaled, θ = 54.4) at 1 kHz: its certified ultimate velocity error (17 rad/s) exceeds the default
-  // tolerance (min V = 10): exit 1, naming the limit.
+  // The rate design (scaled, θ = 54.4) at 1 kHz: its certified ultimate velocity error (10.02 rad/s) exceeds the
+  // default tolerance (min V = 10): exit 1, naming the limit.
   const std::string header = ::testing::TempDir() + "/obsgain_refused_gains.hpp";
   std::remove(header.c_str());
   const AppRun rate = run("design-gains", kDeployment + " --export-header " + header);
