@@ -11,6 +11,7 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <optional>
 #include <utility>
 #include <vector>
 
@@ -316,17 +317,27 @@ PolytopicCertificate polytopic_floor_certificate(const PerturbationPolytope& pol
   const auto solved_at = [&](double gamma) {
     return solve(polytope, k1, k2, gamma / margin, SdpObjective::floor, options, weight);
   };
-  // sqrt(m) / γ: the floor up to the constant factor sqrt(2) ||d|| k2 (floor_blocks); +∞ where no P is found.
-  const auto floor_at = [&](double gamma) {
-    const Solved s = solved_at(gamma);
+  // sqrt(m) / γ: the floor up to the constant factor sqrt(2) ||d|| k2 (floor_blocks); +∞ where no P is found. The
+  // best solution seen is kept, so the γ chosen is not solved again.
+  double gamma = gamma_high, best = kNotFound;
+  std::optional<Solved> chosen;
+  const auto floor_at = [&](double g) {
+    Solved s = solved_at(g);
     const double m = s.sdp.solved ? s.sdp.y(s.layout.last) : -1.0;
-    return m > 0.0 ? std::sqrt(m) / gamma : kNotFound;
+    const double value = m > 0.0 ? std::sqrt(m) / g : kNotFound;
+    if (!chosen || value < best) {
+      best = value;
+      gamma = g;
+      chosen = std::move(s);
+    }
+    return value;
   };
-  double gamma = gamma_high;
   if (gamma_high > gamma_low * (1.0 + options.floor_rate_tolerance))
-    gamma = minimize_golden(floor_at, gamma_low, gamma_high, options.floor_rate_tolerance * gamma_high,
-                            options.floor_search_iterations).x;
-  PolytopicCertificate cert = checked(polytope, k1, k2, gamma, solved_at(gamma));
+    minimize_golden(floor_at, gamma_low, gamma_high, options.floor_rate_tolerance * gamma_high,
+                    options.floor_search_iterations);
+  else
+    floor_at(gamma_high);
+  PolytopicCertificate cert = checked(polytope, k1, k2, gamma, *chosen);
   cert.status += fmt::format("; P chosen for the sampled error floor, at γ = {:.4g} in [{:.4g}, {:.4g}]", gamma,
                              gamma_low, gamma_high);
   return cert;

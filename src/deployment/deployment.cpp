@@ -398,18 +398,25 @@ DeployedDesign deploy_polytopic(const Model& model, const BoundReport& bounds, c
   rate.objective = DesignObjective::rate;
   DeployedDesign polytopic = deploy(model, bounds, at, rate, sensitivity);
   const CertifiedObserver& chosen = polytopic.design.selected().observer;
-  const double floor = polytopic.deployment && chosen.certified && chosen.gamma >= *options.gamma
+  // A polytopic design that fell back (no proven polytope, a failed check) has no polytopic P to offer.
+  const bool proven = polytopic.design.certificate == CertificateKind::polytopic && chosen.certified;
+  const double floor = polytopic.deployment && proven && chosen.gamma >= *options.gamma
                            ? polytopic.deployment->certificate.bounds.velocity_norm
                            : kInfinity;
   const double norm_bound_floor = searched.deployment->certificate.bounds.velocity_norm;
   DeployedDesign& kept = floor < norm_bound_floor ? polytopic : searched;
   kept.deployment->objective = DesignObjective::velocity_error;
   kept.design.target_gamma = options.gamma;
-  kept.design.notes.push_back(
-      fmt::format("velocity-error objective: the gain θ = {:.6g} from the {} certificate's search; at it the polytopic P "
-                  "certifies an ultimate velocity error of {:.4g} rad/s, the {} certificate {:.4g}: the {} is used",
-                  gain.theta, to_string(searched.design.certificate), floor, to_string(searched.design.certificate),
-                  norm_bound_floor, floor < norm_bound_floor ? "polytopic P" : "norm-bound certificate"));
+  const std::string polytopic_result =
+      std::isfinite(floor) ? fmt::format("the polytopic P certifies an ultimate velocity error of {:.4g} rad/s", floor)
+      : proven            ? fmt::format("the polytopic P certifies only γ = {:.4g}", chosen.gamma)
+      : polytopic.design.polytopic ? "the polytopic certificate proves nothing (" + polytopic.design.polytopic->status + ")"
+                                   : "the polytopic certificate proves nothing (no proven polytope)";
+  kept.design.notes.push_back(fmt::format(
+      "velocity-error objective: the gain θ = {:.6g} from the {} certificate's search; at it {}, the {} certificate "
+      "{:.4g} rad/s: the {} is used",
+      gain.theta, to_string(searched.design.certificate), polytopic_result, to_string(searched.design.certificate),
+      norm_bound_floor, floor < norm_bound_floor ? "polytopic P" : "norm-bound certificate"));
   return kept;
 }
 
@@ -451,8 +458,11 @@ std::string unmet_request(const DeployedDesign& result, const DesignOptions& opt
                        dep.sample_period, dep.bounds.velocity_norm, dep.velocity_error_tolerance,
                        dep.max_sample_period > 0.0
                            ? fmt::format("largest sample period within it: {:.4g} s", dep.max_sample_period)
-                           : std::string("no sample period is within it at these gains and encoders: try --objective "
-                                         "velocity-error, finer encoders or --velocity-error-tolerance"));
+                           : fmt::format("no sample period is within it at these gains and encoders: try {}finer "
+                                         "encoders or --velocity-error-tolerance",
+                                         result.deployment->objective == DesignObjective::velocity_error
+                                             ? ""
+                                             : "--objective velocity-error, "));
   }
   return unmet_request(result.design, options);
 }
