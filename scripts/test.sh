@@ -18,11 +18,11 @@ cmake --build build-asan -j"$jobs"
 # Also left to the plain pass: the 1000-trial Monte Carlo (the same code as the shorter ones, 45 s sanitised),
 # the browser screenshot (Chromium's time, not obsgain's), the three-joint bracket convergence (50 s sanitised;
 # the six-joint bracket test runs the same branch and bound under the sanitizers), the dense vertex grid, and the
-# polytopic apps and the polytopic deployment (a minute each sanitised; the polytope, both SDP objectives and the
-# interval check run sanitised in their unit tests), and
+# polytopic apps, the polytopic deployment and the polytopic shape search (a minute or more each sanitised; the
+# polytope, both SDP objectives and the interval check run sanitised in their unit tests), and
 # the resumed searches (30 s sanitised; the same branch and bound runs sanitised in the other bracket tests).
 ctest --test-dir build-asan --output-on-failure -j"$jobs" \
-  -E "installed_package_consumer|docs_commands_run_as_written|CertifiedDesignPasses1000Trials|report_screenshot_not_blank|ThreeJointArmBracketsContainTheGrid|VertexReductionAgainstDenseGrid|PolytopicApps|APolytopicPChosenForTheFloor|ResumedSearchesEndAs"
+  -E "installed_package_consumer|docs_commands_run_as_written|CertifiedDesignPasses1000Trials|report_screenshot_not_blank|ThreeJointArmBracketsContainTheGrid|VertexReductionAgainstDenseGrid|PolytopicApps|APolytopicPChosenForTheFloor|PolytopicShapeSearch|ResumedSearchesEndAs"
 
 if [[ -x ../shared/contract-check ]]; then
   ../shared/contract-check build

@@ -125,11 +125,11 @@ CertificateSummary polytopic_summary(const Design& d, const PerturbationPolytope
   s.rate = target ? *target : polytopic_rate(polytope, o.k1, o.k2, po);
   o.gamma = target ? *target : s.rate * (1.0 - d.rate_margin);
   const PolytopicCertificate cert =
-      options.deployment_model_gain
+      options.sampled_floor
           ? polytopic_floor_certificate(
                 polytope, o.k1, o.k2,
-                target ? o.gamma : std::max(po.floor_lowest_rate_fraction * o.gamma, po.floor_lowest_rate), o.gamma,
-                *options.deployment_model_gain, po)
+                target ? o.gamma : std::max(po.floor_lowest_rate_fraction * o.gamma, options.sampled_floor->lowest_rate),
+                o.gamma, options.sampled_floor->model_gain, po)
           : polytopic_certificate(polytope, o.k1, o.k2, o.gamma, po);
   s.status = cert.status;
   if (cert.exists) {
@@ -141,9 +141,8 @@ CertificateSummary polytopic_summary(const Design& d, const PerturbationPolytope
   return s;
 }
 
-// --certificate polytopic: the polytope, the certificate, and the fall-back to the tight one when either fails.
-void certify_polytopic(Design& d, const Model& model, const DesignOptions& options) {
-  const auto start = std::chrono::steady_clock::now();
+// --certificate polytopic: the polytope the certificate rests on, its summary in d.polytope.
+PerturbationPolytope polytope_for(Design& d, const Model& model, const DesignOptions& options) {
   PolytopeSummary summary;
   const std::string unavailable = certification_unavailable(model);
   PerturbationPolytope polytope;
@@ -158,13 +157,50 @@ void certify_polytopic(Design& d, const Model& model, const DesignOptions& optio
   summary.cells = static_cast<int>(polytope.cells.size());
   summary.vertices = polytope.vertex_count();
   summary.grid = polytope.grid;
-  if (polytope.proven()) d.polytopic = polytopic_summary(d, polytope, options);
-  summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   d.polytope = summary;
+  return polytope;
+}
+
+// --optimize-shape with --certificate polytopic: the same objective on the polytopic certificate, from the norm-bound
+// certificate's best α. A step of the search's resolution either way that does not improve it keeps that α; else a
+// golden section in log α searches the improving side (docs/theory.md, "Shape optimisation").
+void choose_polytopic_shape(Design& d, const PerturbationPolytope& polytope, const DesignOptions& options) {
+  PolytopicOptions po = options.polytopic;
+  po.rate_margin = d.rate_margin;
+  po.relative_tolerance = po.shape_relative_tolerance;
+  ShapeReport::Polytopic shape;
+  const auto objective = [&](double log_alpha) {
+    ++shape.evaluations;
+    const double alpha = std::exp(log_alpha);
+    if (options.gamma) return polytopic_theta_star(polytope, alpha, d.beta, *options.gamma, po);
+    const double theta = *options.theta;
+    return -polytopic_rate(polytope, theta * alpha, theta * theta * d.beta, po);
+  };
+  const double centre = std::log(d.alpha), step = po.shape_log_tolerance, span = std::log(po.shape_span);
+  ScalarOptimum best{centre, objective(centre), 1};
+  shape.objective_at_norm_bound_alpha = best.value;
+  for (const double side : {1.0, -1.0}) {
+    const double value = objective(centre + side * step);
+    if (value >= best.value) continue;
+    const double far = centre + side * span;
+    const ScalarOptimum searched = minimize_golden(objective, std::min(centre, far), std::max(centre, far), step,
+                                                   po.shape_iterations);
+    best = searched.value < value ? searched : ScalarOptimum{centre + side * step, value, 0};
+    break;
+  }
+  shape.alpha = d.alpha = std::exp(best.x);
+  shape.objective = best.value;
+  d.shape.polytopic = shape;
+}
+
+// --certificate polytopic: the certificate on the polytope, and the fall-back to the better norm-bound certificate
+// when either fails.
+void certify_polytopic(Design& d, const PerturbationPolytope& polytope, const DesignOptions& options) {
+  if (polytope.proven()) d.polytopic = polytopic_summary(d, polytope, options);
   if (!d.polytopic || !d.polytopic->observer.certified) {
     d.certificate = better_norm_bound(d);
     d.warnings.push_back(fmt::format("the polytopic certificate failed ({}): the {} certificate is used",
-                                     d.polytopic ? d.polytopic->status : "no proven polytope: " + summary.unproven,
+                                     d.polytopic ? d.polytopic->status : "no proven polytope: " + d.polytope->unproven,
                                      to_string(d.certificate)));
   }
 }
@@ -231,13 +267,14 @@ void choose_certificate(Design& d, const DesignOptions& options) {
   }
 }
 
-// α and β: the options', or with --optimize-shape β = 1 and the α that is best for the certificate.
+// α and β: the options', or with --optimize-shape β = 1 and the α that is best for the certificate (for the polytopic
+// one, the tight certificate's: choose_polytopic_shape refines it once the polytope is built).
 void choose_shape(Design& d, const DesignOptions& options) {
   d.alpha = options.alpha;
   d.beta = options.beta;
   if (!options.optimize_shape) return;
   d.beta = 1.0;
-  if (options.certificate == CertificateKind::paper) {  // polytopic: the tight certificate's α (design.hpp)
+  if (options.certificate == CertificateKind::paper) {
     d.shape = optimize_alpha("S_norm", [](double a) { return observer_lyapunov(a, 1.0, 1).S_norm; });
   } else if (options.gamma) {
     const double L = certificate_L(d, d.certificate);
@@ -255,11 +292,20 @@ void choose_shape(Design& d, const DesignOptions& options) {
 
 // Both certificates, side by side, and what the selected one proves.
 void certify(Design& d, const Model& model, const BoundReport& bounds, const DesignOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  std::optional<PerturbationPolytope> polytope;
+  if (options.certificate == CertificateKind::polytopic) {
+    polytope = polytope_for(d, model, options);
+    if (options.optimize_shape && polytope->proven()) choose_polytopic_shape(d, *polytope, options);
+  }
   d.lyapunov = observer_lyapunov(d.alpha, d.beta, d.dof);
   d.paper = paper_summary(d, options.gamma, options.theta);
   d.tight = tight_summary(d, options.gamma, options.theta);
   if (scalable(d)) d.scaled = tight_summary(d, options.gamma, options.theta, CertificateKind::scaled);
-  if (options.certificate == CertificateKind::polytopic) certify_polytopic(d, model, options);
+  if (polytope) {
+    certify_polytopic(d, *polytope, options);
+    d.polytope->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  }
   // Both certificates use L alone: proven bounds, or the user's own L, make the certificate a proof.
   if (!bounds.certified && !options.L_override) {
     d.not_proven_reason = options.bound_method == BoundMethod::numeric

@@ -233,6 +233,11 @@ nlohmann::json to_json(const Design& d) {
     j["shape"] = {{"objective", d.shape.objective},         {"alpha_global", d.shape.alpha_global},
                   {"alpha_polish", d.shape.alpha_polish},   {"objective_global", d.shape.objective_global},
                   {"objective_polish", d.shape.objective_polish}, {"evaluations", d.shape.evaluations}};
+    if (const auto& p = d.shape.polytopic)
+      j["shape"]["polytopic"] = {{"alpha", p->alpha},
+                                 {"objective", p->objective},
+                                 {"objective_at_norm_bound_alpha", p->objective_at_norm_bound_alpha},
+                                 {"evaluations", p->evaluations}};
   }
   return j;
 }
@@ -307,7 +312,13 @@ std::string format_certificates(const Design& d) {
   out << fmt::format("Lyapunov  G = [[-a, 1], [-b, 0]] (x) I,  a = {:.7g}, b = {:.7g}\n", d.alpha, d.beta);
   out << fmt::format("  S block = [[{:.7f}, {:.7f}], [{:.7f}, {:.7f}]]   ||S|| = {:.7f}   residual = {:.2e}\n", S(0, 0),
                      S(0, 1), S(1, 0), S(1, 1), d.lyapunov.S_norm, d.lyapunov.residual);
-  if (d.shape.optimized)
+  if (const auto& p = d.shape.polytopic)
+    out << fmt::format("  shape optimised (beta = 1, minimise {0}): tight certificate NLopt {1:.7f}, Ipopt {2:.7f}; then "
+                       "the polytopic certificate's {0} (estimates; a search in log alpha, {3} bisections of SDPs): "
+                       "alpha = {4:.7f}, {0} = {5:.6g} ({6:.6g} at the tight alpha)\n",
+                       d.shape.objective, d.shape.alpha_global, d.shape.alpha_polish, p->evaluations, p->alpha,
+                       p->objective, p->objective_at_norm_bound_alpha);
+  else if (d.shape.optimized)
     out << fmt::format("  shape optimised (beta = 1, minimise {}): alpha = {:.7f} (NLopt {:.7f}, Ipopt {:.7f})\n",
                        d.shape.objective, d.alpha, d.shape.alpha_global, d.shape.alpha_polish);
   out << fmt::format("\nCertificates{}\n", d.target_gamma ? fmt::format(" for target gamma = {:.6g}", *d.target_gamma)

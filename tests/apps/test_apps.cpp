@@ -378,12 +378,28 @@ TEST(DeploymentApps, DesignGainsWritesTheDeploymentObjectAndExports) {
   EXPECT_LE(m.at("sampled").at("worst_final_velocity_error").get<double>(), v_norm);
 }
 
+// The default rate design is the scaled certificate's (θ = 54.41); at 1 kHz its certified ultimate velocity error,
+// 10.02 rad/s, exceeds the default tolerance (min V = 10), where the tight certificate's θ = 65.67 gives 6.97: the
+// tight one is used, and a note says why.
+TEST(DeploymentApps, TheRateDesignWithinTheToleranceIsPreferred) {
+  const AppRun rate = run("design-gains", kDeployment + " --json -");
+  ASSERT_EQ(rate.exit_code, 0) << rate.err;
+  const nlohmann::json j = nlohmann::json::parse(rate.out);
+  EXPECT_EQ(j["certificate"], "tight");
+  EXPECT_NEAR(j["design"]["theta"].get<double>(), 65.67, 0.01);
+  EXPECT_NEAR(j["deployment"]["ultimate_velocity_error_norm"].get<double>(), 6.974, 0.001);  // docs/theory.md
+  EXPECT_NE(j["notes"].dump().find("the scaled certificate's θ = 54.4"), std::string::npos) << j["notes"].dump();
+  // Named, the scaled certificate is what is asked for: refused, naming the limit.
+  const AppRun scaled = run("design-gains", kDeployment + " --certificate scaled");
+  EXPECT_EQ(scaled.exit_code, 1);
+  EXPECT_NE(scaled.err.find("exceeds the tolerance"), std::string::npos) << scaled.err;
+}
+
 TEST(DeploymentApps, APeriodAboveTheLimitOrATolerancePastReachIsRefused) {
-  // The rate design (scaled, θ = 54.4) at 1 kHz: its certified ultimate velocity error (10.02 rad/s) exceeds the
-  // default tolerance (min V = 10): exit 1, naming the limit.
+  // At 1 kHz no rate design certifies 5 rad/s (tight 6.97, scaled 10.02): exit 1, naming the limit.
   const std::string header = ::testing::TempDir() + "/obsgain_refused_gains.hpp";
   std::remove(header.c_str());
-  const AppRun rate = run("design-gains", kDeployment + " --export-header " + header);
+  const AppRun rate = run("design-gains", kDeployment + " --velocity-error-tolerance 5 --export-header " + header);
   EXPECT_EQ(rate.exit_code, 1);
   EXPECT_NE(rate.err.find("exceeds the tolerance"), std::string::npos) << rate.err;
   EXPECT_FALSE(std::filesystem::exists(header)) << "gains that fail the request are never exported";

@@ -192,3 +192,35 @@ TEST(Design, BadOptionsAreRefused) {
 }
 
 }  // namespace
+
+// --optimize-shape with the polytopic certificate searches α on the polytopic rate itself. At θ = 65.67 the tight
+// certificate's α (1.2700664) gives the polytopic rate 26.0234 (measured before the search existed, at the default
+// bisection tolerance 1e-3); the golden section in log α must find an α whose rate is at least 10 % higher, and the
+// design must certify it with the P checked in interval arithmetic.
+TEST(Design, PolytopicShapeSearchRaisesThePendubotRateAtAGain) {
+  obsgain::DesignOptions o;
+  o.theta = 65.67;
+  o.certificate = obsgain::CertificateKind::polytopic;
+  o.optimize_shape = true;
+  o.polytopic.shape_iterations = 2;  // the mechanism, at 6 bisections instead of 8 (docs/theory.md has the full search)
+  const obsgain::Design d = obsgain::design_gains(obsgain::pendubot(), o);
+  ASSERT_TRUE(d.shape.polytopic);
+  const obsgain::ShapeReport::Polytopic& shape = *d.shape.polytopic;
+  EXPECT_NEAR(d.shape.alpha_polish, 1.2700664, 1e-6);  // the search's centre: the tight certificate's best α
+  // The bisection's answer is the last rate found, within its tolerance (2e-3) below the reference.
+  EXPECT_LE(-shape.objective_at_norm_bound_alpha, 26.0234 * (1 + 1e-3));
+  EXPECT_GE(-shape.objective_at_norm_bound_alpha, 26.0234 * (1 - 3e-3));
+  EXPECT_EQ(shape.evaluations, 6);  // the tight α, a step up (better), the golden section's two points and two steps
+  EXPECT_GT(-shape.objective, 1.1 * 26.0234);
+  EXPECT_EQ(d.alpha, shape.alpha);
+  ASSERT_EQ(d.certificate, obsgain::CertificateKind::polytopic);
+  const obsgain::CertifiedObserver& observer = d.selected().observer;
+  EXPECT_TRUE(observer.certified);
+  EXPECT_EQ(observer.alpha, shape.alpha);
+  EXPECT_DOUBLE_EQ(observer.k1, 65.67 * shape.alpha);
+  // The design's rate is the same bisection at the finer default tolerance.
+  EXPECT_NEAR(d.selected().rate, -shape.objective, 3e-3 * -shape.objective);
+  const nlohmann::json j = obsgain::to_json(d);
+  EXPECT_EQ(j["shape"]["polytopic"]["evaluations"], 6);
+  EXPECT_DOUBLE_EQ(j["shape"]["polytopic"]["alpha"].get<double>(), shape.alpha);
+}

@@ -40,14 +40,17 @@ struct DesignOptions {
   BoundMethod bound_method = BoundMethod::certified;
   BoundOptions bounds;
   CertifiedOptions certified_bounds;
-  // --certificate polytopic: the cells of the perturbation's polytope and the SDP's policy. Its shape (with
-  // --optimize-shape) is the tight certificate's best α: every α would cost a search of SDPs.
+  // --certificate polytopic: the cells of the perturbation's polytope and the SDP's policy (with --optimize-shape, the
+  // search of α around the norm-bound certificate's best α: PolytopicOptions::shape_*).
   PolytopeOptions polytope;
   PolytopicOptions polytopic;
-  // Set by a sampled deployment (deployment/deployment.hpp): M0 C_q, what the model loses per unit of measurement
-  // error. The polytopic certificate then chooses P, and γ up to the rate θ certifies, for the smallest sampled
-  // error floor instead of the smallest k (polytopic_floor_certificate).
-  std::optional<double> deployment_model_gain;
+  // Set by a sampled deployment (deployment/deployment.hpp): the polytopic certificate then chooses P, and γ up to
+  // the rate θ certifies, for the smallest sampled error floor instead of the smallest k (polytopic_floor_certificate).
+  struct SampledFloor {
+    double model_gain = 0.0;   // M0 C_q: what the model loses per unit of measurement error
+    double lowest_rate = 0.0;  // γ is not traded below this (a velocity-error deployment's target)
+  };
+  std::optional<SampledFloor> sampled_floor;
   // Told the start of each phase (bounds, certified bounds, ...); the apps print it on stderr for robots of more
   // than two joints, unless --quiet.
   std::function<void(const std::string&)> progress;
@@ -75,6 +78,14 @@ struct ShapeReport {
   double alpha_global = 0.0, alpha_polish = 0.0;          // NLopt DIRECT-L, then Ipopt
   double objective_global = 0.0, objective_polish = 0.0;
   int evaluations = 0;
+  // --certificate polytopic: the same objective on the polytopic certificate (θ* for a target, −γ at a θ; estimates,
+  // bisections on the SDP solver's answer), by golden section in log α around the α above, which is kept unless beaten.
+  struct Polytopic {
+    double alpha = 0.0, objective = 0.0;
+    double objective_at_norm_bound_alpha = 0.0;
+    int evaluations = 0;  // θ* or rate bisections
+  };
+  std::optional<Polytopic> polytopic;
 };
 
 struct Design {

@@ -94,21 +94,6 @@ Dual<T> operator-(const Dual<T>& a, double b) {
   return a - Dual<T>(b);
 }
 template <class T>
-Dual<T> operator/(const Dual<T>& a, const Dual<T>& b) {
-  const T q = a.value / b.value;
-  Dual<T> r(q);
-  r.directions = std::max(a.directions, b.directions);
-  for (int k = 0; k < r.directions; ++k) r.derivative[k] = (a.derivative[k] - q * b.derivative[k]) / b.value;
-  return r;
-}
-template <class T>
-Dual<T> operator/(const Dual<T>& a, double b) {
-  Dual<T> r(a.value / b);
-  r.directions = a.directions;
-  for (int k = 0; k < r.directions; ++k) r.derivative[k] = a.derivative[k] / b;
-  return r;
-}
-template <class T>
 Dual<T>& operator+=(Dual<T>& a, const Dual<T>& b) {
   return a = a + b;
 }
