@@ -177,19 +177,23 @@ void choose_polytopic_shape(Design& d, const PerturbationPolytope& polytope, con
     return -polytopic_rate(polytope, theta * alpha, theta * theta * d.beta, po);
   };
   const double centre = std::log(d.alpha), step = po.shape_log_tolerance, span = std::log(po.shape_span);
-  ScalarOptimum best{centre, objective(centre), 1};
-  shape.objective_at_norm_bound_alpha = best.value;
+  double best_x = centre;
+  shape.objective = shape.objective_at_norm_bound_alpha = objective(centre);
   for (const double side : {1.0, -1.0}) {
-    const double value = objective(centre + side * step);
-    if (value >= best.value) continue;
+    const double stepped = objective(centre + side * step);
+    if (stepped >= shape.objective) continue;
+    best_x = centre + side * step;
+    shape.objective = stepped;
     const double far = centre + side * span;
     const ScalarOptimum searched = minimize_golden(objective, std::min(centre, far), std::max(centre, far), step,
                                                    po.shape_iterations);
-    best = searched.value < value ? searched : ScalarOptimum{centre + side * step, value, 0};
+    if (searched.value < stepped) {
+      best_x = searched.x;
+      shape.objective = searched.value;
+    }
     break;
   }
-  shape.alpha = d.alpha = std::exp(best.x);
-  shape.objective = best.value;
+  shape.alpha = d.alpha = std::exp(best_x);
   d.shape.polytopic = shape;
 }
 

@@ -79,7 +79,8 @@ struct ShapeReport {
   double objective_global = 0.0, objective_polish = 0.0;
   int evaluations = 0;
   // --certificate polytopic: the same objective on the polytopic certificate (θ* for a target, −γ at a θ; estimates,
-  // bisections on the SDP solver's answer), by golden section in log α around the α above, which is kept unless beaten.
+  // bisections on the SDP solver's answer), searched in log α from the α above, which is kept unless beaten
+  // (docs/theory.md, "Shape optimisation").
   struct Polytopic {
     double alpha = 0.0, objective = 0.0;
     double objective_at_norm_bound_alpha = 0.0;
