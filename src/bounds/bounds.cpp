@@ -3,6 +3,7 @@
 #include "obsgain/bounds/perturbation_polytope.hpp"
 #include "obsgain/model/dynamics.hpp"
 #include "obsgain/numerics/optimize.hpp"
+#include "obsgain/numerics/spectrum.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -76,7 +77,7 @@ Eigen::VectorXd wrap_configuration(const Model& model, Eigen::VectorXd q) {
 Eigen::VectorXd inertia_eigenvalues(const Model& model, const Eigen::VectorXd& q, Eigen::MatrixXd& M) {
   M.resize(model.dof(), model.dof());
   mass_matrix(model, q, M);
-  const Eigen::VectorXd lambda = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(M, Eigen::EigenvaluesOnly).eigenvalues();
+  const Eigen::VectorXd lambda = symmetric_eigenvalues(M);
   if (!(lambda(0) > 1e-12 * lambda(lambda.size() - 1))) singular_inertia(model, q);
   return lambda;
 }
@@ -188,7 +189,7 @@ class LargestSingularValue {
       llt_.compute(shifted_);
       if (llt_.info() == Eigen::Success) return false;
     }
-    const double largest = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(G, Eigen::EigenvaluesOnly).eigenvalues().maxCoeff();
+    const double largest = symmetric_eigenvalues(G).maxCoeff();
     if (largest <= best_squared_) return false;
     best_squared_ = largest;
     return true;
@@ -303,7 +304,7 @@ Eigen::VectorXd scaling_on(const Model& model, const Eigen::VectorXd& V, const s
     t = best_diagonal_scaling(matrices);
     chosen_on = 0.0;
     for (const Eigen::MatrixXd& Phi : matrices)
-      chosen_on = std::max(chosen_on, (t.asDiagonal() * Phi * t.cwiseInverse().asDiagonal()).operatorNorm());
+      chosen_on = std::max(chosen_on, spectral_norm(t.asDiagonal() * Phi * t.cwiseInverse().asDiagonal()));
   }
   return t;
 }
@@ -347,7 +348,7 @@ double inverse_inertia_norm(const Model& model, const Eigen::VectorXd& q) {
 double coriolis_jacobian_norm(const Model& model, const Eigen::VectorXd& q, const Eigen::VectorXd& w) {
   std::vector<Eigen::MatrixXd> N;
   coriolis_tensors(model, q, N);
-  return coriolis_jacobian(N, w).operatorNorm();
+  return spectral_norm(coriolis_jacobian(N, w));
 }
 
 double joint_lipschitz_norm(const Model& model, const Eigen::VectorXd& q, const Eigen::VectorXd& w,
@@ -356,8 +357,8 @@ double joint_lipschitz_norm(const Model& model, const Eigen::VectorXd& q, const 
   coriolis_tensors(model, q, N);
   const Eigen::MatrixXd X = coriolis_jacobian(N, w) * saturation_pattern.asDiagonal() + model.friction;
   const Eigen::MatrixXd Phi = factor_inertia(model, q).solve(X);
-  if (scaling.size() == 0) return Phi.operatorNorm();
-  return (scaling.asDiagonal() * Phi * scaling.cwiseInverse().asDiagonal()).operatorNorm();
+  if (scaling.size() == 0) return spectral_norm(Phi);
+  return spectral_norm(scaling.asDiagonal() * Phi * scaling.cwiseInverse().asDiagonal());
 }
 
 double max_coriolis_jacobian_norm(const Model& model, const Eigen::VectorXd& q, const Eigen::VectorXd& velocity_bounds) {
@@ -383,7 +384,7 @@ Eigen::VectorXd best_diagonal_scaling(const std::vector<Eigen::MatrixXd>& matric
     const Eigen::VectorXd t = scaling(x);
     double value = 0.0;
     for (const Eigen::MatrixXd& Phi : matrices)
-      value = std::max(value, (t.asDiagonal() * Phi * t.cwiseInverse().asDiagonal()).operatorNorm());
+      value = std::max(value, spectral_norm(t.asDiagonal() * Phi * t.cwiseInverse().asDiagonal()));
     return value;
   };
   const Eigen::VectorXd bound = Eigen::VectorXd::Constant(n - 1, std::log(1e3));
@@ -397,7 +398,7 @@ BoundReport compute_bounds(const Model& model, const Eigen::VectorXd& velocity_b
 
   BoundReport report;
   report.velocity_bounds = velocity_bounds;
-  report.F_norm = model.friction.operatorNorm();
+  report.F_norm = spectral_norm(model.friction);
 
   BoundProblem m0;
   m0.all_choices = [&](const Eigen::VectorXd& q, int& choice) {

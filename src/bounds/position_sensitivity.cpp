@@ -3,6 +3,7 @@
 #include "obsgain/bounds/certified_bounds.hpp"
 #include "obsgain/bounds/enclosures.hpp"
 #include "obsgain/bounds/joint_search.hpp"
+#include "obsgain/numerics/spectrum.hpp"
 
 #include <fmt/format.h>
 
@@ -96,7 +97,7 @@ double sensitivity_at(const Model& model, const Eigen::VectorXd& q, const Eigen:
     const IntervalMatrix K = sensitivity_enclosure(terms, a, products_of(v));
     Eigen::MatrixXd mid(n, n);
     for (Eigen::Index e = 0; e < K.size(); ++e) mid(e) = centre(K(e));
-    best = std::max(best, mid.operatorNorm());
+    best = std::max(best, spectral_norm(mid));
   }
   return best;
 }

@@ -251,8 +251,7 @@ Interval two_by_two_upper(const Interval& a, const Interval& b2, const Interval&
 
 // The right singular vectors of C (leading first) and their non-orthogonality δ, bounded (δ >= 0.5: unusable).
 Eigen::MatrixXd singular_basis(const Eigen::MatrixXd& C, double& delta) {
-  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(C.transpose() * C);
-  const Eigen::MatrixXd V = eigen.eigenvectors().rowwise().reverse();
+  const Eigen::MatrixXd V = symmetric_eigen(C.transpose() * C).vectors.rowwise().reverse();
   const auto n = V.cols();
   delta = up(frobenius(V.transpose() * V - Eigen::MatrixXd::Identity(n, n)) + product_rounding(V.transpose(), V));
   return V;
@@ -305,8 +304,7 @@ double top_entry_lower(double centre, const Eigen::VectorXd& slopes, const std::
 
 double smallest_eigenvalue_lower(const TaylorMatrix& X) {
   const int n = static_cast<int>(X.centre.cols()), m = X.symbols();
-  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(0.5 * (X.centre + X.centre.transpose()));
-  const Eigen::MatrixXd& V = eigen.eigenvectors();  // smallest first
+  const Eigen::MatrixXd V = symmetric_eigen(0.5 * (X.centre + X.centre.transpose())).vectors;  // smallest first
   const Eigen::MatrixXd W = V.transpose() * V - Eigen::MatrixXd::Identity(n, n);
   const double delta = up(frobenius(W) + product_rounding(V.transpose(), V));
   if (!(delta < 0.5)) return -kInfinity;

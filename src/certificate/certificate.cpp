@@ -1,8 +1,8 @@
 #include "obsgain/certificate/certificate.hpp"
 
 #include "obsgain/model/model.hpp"
+#include "obsgain/numerics/spectrum.hpp"
 
-#include <Eigen/Eigenvalues>
 #include <fmt/format.h>
 #include <nlopt.hpp>
 
@@ -89,12 +89,11 @@ double certificate_lmi_max_eig(const Eigen::Matrix2d& P, double k1, double k2, d
   Eigen::Vector3d scale;
   for (int i = 0; i < 3; ++i) scale(i) = 1.0 / std::sqrt(std::max(std::abs(lmi(i, i)), 1e-300));
   const Eigen::Matrix3d scaled = scale.asDiagonal() * lmi * scale.asDiagonal();
-  return Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(0.5 * (scaled + scaled.transpose()), Eigen::EigenvaluesOnly)
-      .eigenvalues()(2);
+  return symmetric_eigenvalues(0.5 * (scaled + scaled.transpose()))(2);
 }
 
 double envelope_constant(const Eigen::Matrix2d& P) {
-  const Eigen::Vector2d lambda = Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(P, Eigen::EigenvaluesOnly).eigenvalues();
+  const Eigen::Vector2d lambda = symmetric_eigenvalues(P);
   return std::sqrt(lambda(1) / lambda(0));
 }
 
@@ -143,9 +142,9 @@ bool stabilising_riccati(const Eigen::Matrix2d& A, const Eigen::Matrix2d& R, con
 
   Eigen::Matrix4d H;
   H << A_z, R_z, -Q_z, -A_z.transpose();
-  Eigen::ComplexSchur<Eigen::Matrix4cd> schur(H.cast<std::complex<double>>());
-  Eigen::Matrix4cd U = schur.matrixT();
-  Eigen::Matrix4cd Z = schur.matrixU();
+  const ComplexSchurForm schur = complex_schur(H.cast<std::complex<double>>());
+  Eigen::Matrix4cd U = schur.T;
+  Eigen::Matrix4cd Z = schur.U;
   order_stable_first(U, Z);
   const double scale = H.norm();
   for (int k = 0; k < 4; ++k) {
@@ -227,7 +226,7 @@ RiccatiCertificate tight_certificate(double k1, double k2, double L, double gamm
   const Eigen::Matrix2d AtP = A.transpose() * P;
   cert.riccati_residual = (AtP + AtP.transpose() + P * R * P + Q).norm() /
                           (2.0 * AtP.norm() + (P * R * P).norm() + Q.norm());
-  const Eigen::Vector2d lambda = Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(P, Eigen::EigenvaluesOnly).eigenvalues();
+  const Eigen::Vector2d lambda = symmetric_eigenvalues(P);
   if (!(lambda(0) > 0.0)) return cert;
   cert.riccati_k = envelope_constant(P);
   cert.P = smallest_envelope_matrix(P, k1, k2, L, gamma);

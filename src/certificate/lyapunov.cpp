@@ -1,6 +1,7 @@
 #include "obsgain/certificate/lyapunov.hpp"
 
 #include "obsgain/model/model.hpp"
+#include "obsgain/numerics/spectrum.hpp"
 
 #include <unsupported/Eigen/KroneckerProduct>
 
@@ -9,9 +10,9 @@ namespace obsgain {
 Eigen::MatrixXd solve_lyapunov(const Eigen::MatrixXd& G, const Eigen::MatrixXd& Q) {
   const Eigen::Index n = G.rows();
   // G = U T Uᵀ with T quasi upper triangular; S = U Y Uᵀ turns the equation into Tᵀ Y + Y T = C.
-  const Eigen::RealSchur<Eigen::MatrixXd> schur(G);
-  const Eigen::MatrixXd& T = schur.matrixT();
-  const Eigen::MatrixXd& U = schur.matrixU();
+  const RealSchurForm schur = real_schur(G);
+  const Eigen::MatrixXd& T = schur.T;
+  const Eigen::MatrixXd& U = schur.U;
   const Eigen::MatrixXd C = -U.transpose() * Q * U;
   const Eigen::MatrixXd Tt = T.transpose();
   const Eigen::MatrixXd I = Eigen::MatrixXd::Identity(n, n);
@@ -58,7 +59,7 @@ LyapunovSolution observer_lyapunov(double alpha, double beta, int dof) {
   solution.S = Eigen::kroneckerProduct(solution.S2, In);
   const Eigen::MatrixXd G = Eigen::kroneckerProduct(G2, In);
   solution.residual = lyapunov_residual(G, Eigen::MatrixXd::Identity(2 * dof, 2 * dof), solution.S);
-  solution.S_norm = Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(solution.S2).eigenvalues()(1);
+  solution.S_norm = symmetric_eigenvalues(solution.S2)(1);
   return solution;
 }
 

@@ -123,7 +123,7 @@ void normalisation(const Layout& l, const Eigen::VectorXd& W, bool upper_by_last
 }
 
 double largest_eigenvalue(const LinearMatrixInequality& block, const Eigen::VectorXd& y) {
-  return Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(evaluate(block, y), Eigen::EigenvaluesOnly).eigenvalues().maxCoeff();
+  return symmetric_eigenvalues(evaluate(block, y)).maxCoeff();
 }
 
 // P = W P_x W: the weights of the balanced coordinates x = (√k2 e_q, e_v).

@@ -49,7 +49,7 @@ double schur_lower(const Eigen::MatrixXd& P, int n, bool positions) {
   const int a = positions ? 0 : n, b = positions ? n : 0;
   const Eigen::MatrixXd Paa = P.block(a, a, n, n), Pab = P.block(a, b, n, n), Pbb = P.block(b, b, n, n);
   const Eigen::MatrixXd schur = Paa - Pab * Pbb.ldlt().solve(Pab.transpose());
-  const double estimate = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(schur, Eigen::EigenvaluesOnly).eigenvalues()(0);
+  const double estimate = symmetric_eigenvalues(schur)(0);
   for (double shrink = 1e-9; shrink < 0.5 && estimate > 0.0; shrink *= 10.0) {
     const double mu = estimate * (1.0 - shrink);
     Eigen::MatrixXd shifted = P;

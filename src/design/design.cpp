@@ -272,7 +272,8 @@ void choose_certificate(Design& d, const DesignOptions& options) {
 }
 
 // α and β: the options', or with --optimize-shape β = 1 and the α that is best for the certificate (for the polytopic
-// one, the tight certificate's: choose_polytopic_shape refines it once the polytope is built).
+// one, the tight certificate's: choose_polytopic_shape refines it once the polytope is built, and
+// reshape_for_fall_back replaces it when the polytopic certificate falls back).
 void choose_shape(Design& d, const DesignOptions& options) {
   d.alpha = options.alpha;
   d.beta = options.beta;
@@ -294,6 +295,27 @@ void choose_shape(Design& d, const DesignOptions& options) {
     d.warnings.push_back("shape optimisation: NLopt and Ipopt disagree beyond 1e-6");
 }
 
+// The paper's and the norm-bound certificates at the design's α and β.
+void certify_norm_bound(Design& d, const DesignOptions& options) {
+  d.lyapunov = observer_lyapunov(d.alpha, d.beta, d.dof);
+  d.paper = paper_summary(d, options.gamma, options.theta);
+  d.tight = tight_summary(d, options.gamma, options.theta);
+  if (scalable(d)) d.scaled = tight_summary(d, options.gamma, options.theta, CertificateKind::scaled);
+}
+
+// --optimize-shape, when the polytopic certificate falls back: the norm-bound certificate used gets its own best α,
+// not the one chosen for the polytope (or for the tight certificate, when the scaled one is used). The shape report
+// is then that certificate's search; the warning names the α it replaces.
+void reshape_for_fall_back(Design& d, const DesignOptions& options) {
+  const double polytopic_alpha = d.alpha;
+  choose_shape(d, options);
+  if (d.alpha == polytopic_alpha) return;
+  certify_norm_bound(d, options);
+  d.warnings.push_back(fmt::format("--optimize-shape: alpha = {:.6g} is the {} certificate's own best (not {:.6g}, "
+                                   "chosen for the polytopic certificate)",
+                                   d.alpha, to_string(d.certificate), polytopic_alpha));
+}
+
 // Both certificates, side by side, and what the selected one proves.
 void certify(Design& d, const Model& model, const BoundReport& bounds, const DesignOptions& options) {
   const auto start = std::chrono::steady_clock::now();
@@ -302,12 +324,10 @@ void certify(Design& d, const Model& model, const BoundReport& bounds, const Des
     polytope = polytope_for(d, model, options);
     if (options.optimize_shape && polytope->proven()) choose_polytopic_shape(d, *polytope, options);
   }
-  d.lyapunov = observer_lyapunov(d.alpha, d.beta, d.dof);
-  d.paper = paper_summary(d, options.gamma, options.theta);
-  d.tight = tight_summary(d, options.gamma, options.theta);
-  if (scalable(d)) d.scaled = tight_summary(d, options.gamma, options.theta, CertificateKind::scaled);
+  certify_norm_bound(d, options);
   if (polytope) {
     certify_polytopic(d, *polytope, options);
+    if (options.optimize_shape && d.certificate != CertificateKind::polytopic) reshape_for_fall_back(d, options);
     d.polytope->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   }
   // Both certificates use L alone: proven bounds, or the user's own L, make the certificate a proof.

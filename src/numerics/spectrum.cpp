@@ -4,22 +4,37 @@
 
 namespace obsgain {
 
-namespace {
-
-Eigen::VectorXd eigenvalues(const Eigen::MatrixXd& S) {
+Eigen::VectorXd symmetric_eigenvalues(const Eigen::MatrixXd& S) {
   return Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(S, Eigen::EigenvaluesOnly).eigenvalues();
 }
 
-}  // namespace
+SymmetricEigen symmetric_eigen(const Eigen::MatrixXd& S) {
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(S);
+  return {eigen.eigenvalues(), eigen.eigenvectors()};
+}
+
+double spectral_norm(const Eigen::MatrixXd& A) {
+  return std::sqrt(symmetric_eigenvalues(A * A.transpose()).maxCoeff());
+}
+
+RealSchurForm real_schur(const Eigen::MatrixXd& G) {
+  const Eigen::RealSchur<Eigen::MatrixXd> schur(G);
+  return {schur.matrixT(), schur.matrixU()};
+}
+
+ComplexSchurForm complex_schur(const Eigen::MatrixXcd& H) {
+  const Eigen::ComplexSchur<Eigen::MatrixXcd> schur(H);
+  return {schur.matrixT(), schur.matrixU()};
+}
 
 double largest_eigenvalue_upper(const Eigen::MatrixXd& S) {
-  const Eigen::VectorXd lambda = eigenvalues(S);
+  const Eigen::VectorXd lambda = symmetric_eigenvalues(S);
   const UpwardRounding upward;
   return (Interval(lambda(lambda.size() - 1)) + Interval(kEigenPad) * Interval(lambda.cwiseAbs().maxCoeff())).upper();
 }
 
 double smallest_eigenvalue_lower(const Eigen::MatrixXd& S) {
-  const Eigen::VectorXd lambda = eigenvalues(S);
+  const Eigen::VectorXd lambda = symmetric_eigenvalues(S);
   const UpwardRounding upward;
   return (Interval(lambda(0)) - Interval(kEigenPad) * Interval(lambda.cwiseAbs().maxCoeff())).lower();
 }

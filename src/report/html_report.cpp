@@ -338,6 +338,7 @@ std::string certificate_section(const VerificationReport& r) {
     << number(d.lyapunov.S2(0, 1)) << "], [" << number(d.lyapunov.S2(1, 0)) << ", " << number(d.lyapunov.S2(1, 1))
     << "]], ||S|| = " << number(d.lyapunov.S_norm) << ", relative residual " << fmt::format("{:.1e}", d.lyapunov.residual)
     << ".</p>\n";
+  if (d.shape.optimized) h << "<p>" << escape(shape_summary(d)) << ".</p>\n";
   std::vector<std::string> header = {"", "paper (Theorem 1)", "tight (bounded-real)"};
   if (d.scaled) header.push_back("scaled (bounded-real, T = diag" + format_vector(d.bounds.scaling) + ")");
   if (d.polytopic) header.push_back("polytopic (full P, SDP)");

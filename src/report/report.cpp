@@ -64,6 +64,19 @@ std::string format_vector(const Eigen::VectorXd& v) {
   return s + ")";
 }
 
+std::string shape_summary(const Design& d) {
+  if (const auto& p = d.shape.polytopic)
+    return fmt::format("shape optimised (beta = 1, minimise {0}): tight certificate NLopt {1:.7f}, Ipopt {2:.7f}; then "
+                       "the polytopic certificate's {0} (estimates; a search in log alpha, {3} bisections of SDPs): "
+                       "alpha = {4:.7f}, {0} = {5:.6g} ({6:.6g} at the tight alpha)",
+                       d.shape.objective, d.shape.alpha_global, d.shape.alpha_polish, p->evaluations, p->alpha,
+                       p->objective, p->objective_at_norm_bound_alpha);
+  if (d.shape.optimized)
+    return fmt::format("shape optimised (beta = 1, minimise {}): alpha = {:.7f} (NLopt {:.7f}, Ipopt {:.7f})",
+                       d.shape.objective, d.alpha, d.shape.alpha_global, d.shape.alpha_polish);
+  return {};
+}
+
 std::vector<ComparisonRow> certificate_comparison(const Design& d) {
   const CertifiedObserver &p = d.paper.observer, &t = d.tight.observer;
   std::vector<ComparisonRow> rows = {
@@ -312,15 +325,7 @@ std::string format_certificates(const Design& d) {
   out << fmt::format("Lyapunov  G = [[-a, 1], [-b, 0]] (x) I,  a = {:.7g}, b = {:.7g}\n", d.alpha, d.beta);
   out << fmt::format("  S block = [[{:.7f}, {:.7f}], [{:.7f}, {:.7f}]]   ||S|| = {:.7f}   residual = {:.2e}\n", S(0, 0),
                      S(0, 1), S(1, 0), S(1, 1), d.lyapunov.S_norm, d.lyapunov.residual);
-  if (const auto& p = d.shape.polytopic)
-    out << fmt::format("  shape optimised (beta = 1, minimise {0}): tight certificate NLopt {1:.7f}, Ipopt {2:.7f}; then "
-                       "the polytopic certificate's {0} (estimates; a search in log alpha, {3} bisections of SDPs): "
-                       "alpha = {4:.7f}, {0} = {5:.6g} ({6:.6g} at the tight alpha)\n",
-                       d.shape.objective, d.shape.alpha_global, d.shape.alpha_polish, p->evaluations, p->alpha,
-                       p->objective, p->objective_at_norm_bound_alpha);
-  else if (d.shape.optimized)
-    out << fmt::format("  shape optimised (beta = 1, minimise {}): alpha = {:.7f} (NLopt {:.7f}, Ipopt {:.7f})\n",
-                       d.shape.objective, d.alpha, d.shape.alpha_global, d.shape.alpha_polish);
+  if (d.shape.optimized) out << "  " << shape_summary(d) << "\n";
   out << fmt::format("\nCertificates{}\n", d.target_gamma ? fmt::format(" for target gamma = {:.6g}", *d.target_gamma)
                                                              : fmt::format(" at theta = {:.6g}", d.paper.observer.theta));
   const auto cell = [](const std::optional<double>& x) {

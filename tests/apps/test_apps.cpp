@@ -324,14 +324,20 @@ TEST(VerifyBoundsApp, WritesTheReportWithCertifiedBrackets) {
     EXPECT_FALSE(read_text(out + "/" + csv).empty()) << csv;
 }
 
+// Also: with --optimize-shape the report says how α was chosen, as the table does.
 TEST(VerifyBoundsApp, WithoutGnuplotTheReportStillBuildsAndSaysWhy) {
   const std::string out = ::testing::TempDir() + "/obsgain_verify_noplot";
-  const AppRun r = run("verify-bounds", "--gamma 1.27 --bounds numeric --trials 4 --out " + out, "PATH=/nonexistent");
+  const AppRun r = run("verify-bounds", "--gamma 1.27 --bounds numeric --optimize-shape --trials 4 --out " + out,
+                       "PATH=/nonexistent");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const std::string html = read_text(out + "/report.html");
   EXPECT_NE(html.find("Plots are missing: gnuplot is not installed"), std::string::npos);
   EXPECT_EQ(html.find("<svg"), std::string::npos);
   EXPECT_FALSE(read_text(out + "/bound_curves.csv").empty());
+  std::array<char, 96> line{};
+  std::snprintf(line.data(), line.size(), "shape optimised (beta = 1, minimise theta_star): alpha = %.7f",
+                read_json(out + "/report.json")["design"]["alpha"].get<double>());
+  EXPECT_NE(html.find(line.data()), std::string::npos) << line.data();
 }
 
 TEST(VerifyBoundsApp, RefusesBadInput) {
@@ -451,18 +457,26 @@ TEST(PolytopicApps, PendubotDesignIsProvenAndPassesMonteCarlo) {
 }
 
 // Where the polytope cannot be proven (too few cells for M to be proven invertible), the better norm-bound
-// certificate is used (on arm3 the scaled one: its L_T is below L_joint) and the warning says why.
-TEST(PolytopicApps, FallsBackToTheNormBoundCertificateAndSaysWhy) {
-  const AppRun r = run("design-gains", "--robot " + std::string(OBSGAIN_EXAMPLES_DIR) +
-                                           "/arm3.urdf --gamma 5 --certificate polytopic --polytope-cells 4 --json");
-  ASSERT_EQ(r.exit_code, 0) << r.err;
-  const nlohmann::json j = nlohmann::json::parse(r.out);
-  EXPECT_EQ(j["certificate"], "scaled");
-  EXPECT_LT(j["bounds"]["L_scaled"].get<double>(), j["bounds"]["L_joint"].get<double>());
-  EXPECT_TRUE(j["certified"].get<bool>());
-  const std::string warnings = j["warnings"].dump();
+// certificate is used (on arm3 the scaled one: its L_T is below L_joint) and the warning says why. With
+// --optimize-shape it is designed at its own best α: the same design as asking for it, not the tight certificate's α
+// (the polytopic search's starting point) under the scaled certificate.
+TEST(PolytopicApps, FallsBackToTheNormBoundCertificateAtItsOwnShapeAndSaysWhy) {
+  const std::string request = "--robot " + std::string(OBSGAIN_EXAMPLES_DIR) + "/arm3.urdf --gamma 5 --optimize-shape --json";
+  const AppRun fallen = run("design-gains", request + " --certificate polytopic --polytope-cells 4");
+  const AppRun asked = run("design-gains", request + " --certificate scaled");
+  for (const AppRun* r : {&fallen, &asked}) ASSERT_EQ(r->exit_code, 0) << r->err;
+  const nlohmann::json f = nlohmann::json::parse(fallen.out), a = nlohmann::json::parse(asked.out);
+  EXPECT_EQ(f["certificate"], "scaled");
+  EXPECT_LT(f["bounds"]["L_scaled"].get<double>(), f["bounds"]["L_joint"].get<double>());
+  EXPECT_TRUE(f["certified"].get<bool>());
+  const std::string warnings = f["warnings"].dump();
   EXPECT_NE(warnings.find("the polytopic certificate failed (no proven polytope"), std::string::npos) << warnings;
   EXPECT_NE(warnings.find("the scaled certificate is used"), std::string::npos) << warnings;
+  // The tight certificate's best α (the search's start), which the scaled certificate's differs from (L_T < L_joint).
+  EXPECT_NE(warnings.find("not 1.29289, chosen for the polytopic certificate"), std::string::npos) << warnings;
+  EXPECT_DOUBLE_EQ(f["design"]["alpha"].get<double>(), a["design"]["alpha"].get<double>());
+  EXPECT_NEAR(a["design"]["alpha"].get<double>(), 1.29682, 1e-5);
+  EXPECT_DOUBLE_EQ(f["design"]["theta"].get<double>(), a["design"]["theta"].get<double>());
 }
 
 }  // namespace

@@ -1,7 +1,7 @@
 #include "obsgain/certificate/certificate.hpp"
 #include "obsgain/certificate/polytopic.hpp"
-#include "obsgain/numerics/spectrum.hpp"
 #include "obsgain/model/model.hpp"
+#include "obsgain/numerics/spectrum.hpp"
 
 #include <gtest/gtest.h>
 
@@ -83,7 +83,7 @@ TEST(PolytopicCertificate, PendubotProvesFifteenAtTheTightDesignGain) {
 double floor_measure(const Eigen::MatrixXd& P, double k1, double k2, double g, double gamma) {
   Eigen::Matrix2d K;
   K << k1, 0.0, k2, g;
-  const double weight = Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(K.transpose() * P * K).eigenvalues().maxCoeff();
+  const double weight = obsgain::symmetric_eigenvalues(K.transpose() * P * K).maxCoeff();
   return std::sqrt(weight * P.inverse()(1, 1)) / gamma;
 }
 

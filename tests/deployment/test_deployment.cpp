@@ -3,6 +3,7 @@
 // and Monte Carlo with the Observer class as deployed (which must also catch a certificate made too small).
 #include "obsgain/deployment/deployment.hpp"
 #include "obsgain/model/dynamics.hpp"
+#include "obsgain/numerics/spectrum.hpp"
 #include "obsgain/validation/montecarlo.hpp"
 
 #include <gtest/gtest.h>
@@ -112,7 +113,7 @@ double grid_sensitivity(const Model& model, const Eigen::Vector2d& V, const Eige
           const Eigen::Vector2d step = 1e-6 * Eigen::Vector2d::Unit(c);
           K.col(c) = (h(q + step, a, v) - h(q - step, a, v)) / 2e-6;
         }
-        best = std::max(best, K.operatorNorm());
+        best = std::max(best, obsgain::spectral_norm(K));
       }
     }
   return best;

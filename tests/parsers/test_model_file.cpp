@@ -1,8 +1,9 @@
 #include "json.hpp"
 #include "obsgain/bounds/bounds.hpp"
 #include "obsgain/design/design.hpp"
-#include "obsgain/parsers/model_file.hpp"
 #include "obsgain/model/dynamics.hpp"
+#include "obsgain/numerics/spectrum.hpp"
+#include "obsgain/parsers/model_file.hpp"
 #include "obsgain/parsers/robots.hpp"
 
 #include <gtest/gtest.h>
@@ -38,7 +39,7 @@ void expect_hand_derived(const std::string& file, double pi1, double pi2, double
   for (const Eigen::Vector2d w : {Eigen::Vector2d(V(0), V(1)), Eigen::Vector2d(V(0), -V(1))}) {
     Eigen::Matrix2d X;
     X << -w(1), -(w(0) + w(1)), w(0), 0.0;
-    B = std::max(B, 2 * pi3 * X.operatorNorm());
+    B = std::max(B, 2 * pi3 * obsgain::spectral_norm(X));
   }
   EXPECT_NEAR(r.M0.value, M0, 1e-9 * M0) << file;
   EXPECT_NEAR(r.B.value, B, 1e-9 * B) << file;

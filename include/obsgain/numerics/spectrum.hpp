@@ -11,6 +11,27 @@ namespace obsgain {
 
 inline constexpr double kEigenPad = 1e-12;
 
+// Eigen's eigensolvers take seconds to compile in every file that instantiates them (about 10 s of a 2-core build
+// each): the library instantiates them once, here, and every caller goes through these.
+Eigen::VectorXd symmetric_eigenvalues(const Eigen::MatrixXd& S);  // ascending; S read from its lower triangle
+struct SymmetricEigen {
+  Eigen::VectorXd values;   // ascending
+  Eigen::MatrixXd vectors;  // orthonormal columns, in the values' order
+};
+SymmetricEigen symmetric_eigen(const Eigen::MatrixXd& S);
+// ||A||₂ in floating point, as Eigen's operatorNorm computes it (an estimate: spectral_norm_upper bounds it).
+double spectral_norm(const Eigen::MatrixXd& A);
+// G = U T Uᵀ, T quasi upper triangular, U orthogonal.
+struct RealSchurForm {
+  Eigen::MatrixXd T, U;
+};
+RealSchurForm real_schur(const Eigen::MatrixXd& G);
+// H = U T U*, T upper triangular, U unitary.
+struct ComplexSchurForm {
+  Eigen::MatrixXcd T, U;
+};
+ComplexSchurForm complex_schur(const Eigen::MatrixXcd& H);
+
 double largest_eigenvalue_upper(const Eigen::MatrixXd& S);
 double smallest_eigenvalue_lower(const Eigen::MatrixXd& S);
 // ||B||₂, from the symmetric dilation [[0, B], [Bᵀ, 0]].

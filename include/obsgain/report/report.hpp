@@ -30,6 +30,9 @@ struct ComparisonRow {
 };
 std::vector<ComparisonRow> certificate_comparison(const Design& design);
 
+// With --optimize-shape: how α was chosen, in one line (the text and HTML reports both show it); empty otherwise.
+std::string shape_summary(const Design& design);
+
 // "obsgain X.Y.Z" (--version, and the report's verdict box).
 std::string version();
 
