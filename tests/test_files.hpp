@@ -9,6 +9,11 @@
 
 namespace obsgain_test {
 
+#ifdef OBSGAIN_EXAMPLES_DIR
+// The shipped example robots (examples/).
+inline const std::string examples = OBSGAIN_EXAMPLES_DIR;
+#endif
+
 inline std::string read_text(const std::string& path) {
   std::ifstream file(path);
   std::ostringstream text;

@@ -12,7 +12,6 @@ namespace obsgain {
 
 namespace {
 
-constexpr double kInfinity = std::numeric_limits<double>::infinity();
 static_assert(kTaylorSymbols <= kMaxDirections, "the Christoffel tensors differentiate along every searched joint");
 
 // The model's M (and N) over one box of the searched joints, as second-order Taylor forms: symbol k is side k.

@@ -16,8 +16,6 @@ namespace obsgain {
 
 namespace {
 
-constexpr double kInfinity = std::numeric_limits<double>::infinity();
-
 // The searches of one certification: each gets a share of the work budget left when it starts, and all stop at the
 // wall-clock safety limit.
 class BudgetShares {

@@ -11,8 +11,6 @@ namespace obsgain {
 
 namespace {
 
-constexpr double kInfinity = std::numeric_limits<double>::infinity();
-
 // Rounding of a double dot product of length n (or of a matrix product's entries): at most γ_n Σ|x_i||y_i|.
 double gamma(int n) { return (n + 2) * kTaylorRoundoff * 1.01; }
 

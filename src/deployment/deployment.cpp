@@ -19,8 +19,6 @@ using boost::numeric::square;
 
 namespace {
 
-constexpr double kInfinity = std::numeric_limits<double>::infinity();
-
 // M0 C_q rounded up: ||ψ|| <= M0 C_q ||η||.
 double model_gain_upper(double M0, double C_q) {
   const UpwardRounding upward;

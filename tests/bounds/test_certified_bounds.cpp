@@ -9,6 +9,7 @@
 #include "obsgain/parsers/robots.hpp"
 #include "obsgain/report/report.hpp"
 
+#include "test_files.hpp"
 #include <gtest/gtest.h>
 
 #include <fstream>
@@ -179,7 +180,7 @@ TEST(CertifiedDesign, FallsBackToNumericWithAWarningAndIsNeverCalledCertified) {
 
 namespace {
 
-const std::string examples = OBSGAIN_EXAMPLES_DIR;
+using obsgain_test::examples;
 
 // A light numeric search: the branch and bound only needs its argmax as a seed (the tests compare the brackets
 // with sampled values, not with the search).

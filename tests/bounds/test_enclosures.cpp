@@ -4,13 +4,14 @@
 #include "obsgain/model/dynamics.hpp"
 #include "obsgain/parsers/robots.hpp"
 
+#include "test_files.hpp"
 #include <gtest/gtest.h>
 
 #include <random>
 
 namespace {
 
-const std::string examples = OBSGAIN_EXAMPLES_DIR;
+using obsgain_test::examples;
 
 // Random boxes, random points inside: the DualInterval evaluation encloses M, N, g and the derivatives of M
 // and g (central differences) at every point, for n = 2, 3, 6, 7.

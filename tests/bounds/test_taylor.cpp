@@ -11,6 +11,7 @@
 #include "obsgain/numerics/taylor.hpp"
 #include "obsgain/parsers/robots.hpp"
 
+#include "test_files.hpp"
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -19,7 +20,7 @@
 
 namespace {
 
-const std::string examples = OBSGAIN_EXAMPLES_DIR;
+using obsgain_test::examples;
 
 // x(ε) without its remainder, and whether a value lies within the remainder of it (plus `slack` for the double
 // evaluation the value comes from).

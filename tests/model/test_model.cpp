@@ -2,11 +2,12 @@
 #include "obsgain/model/dynamics.hpp"
 #include "obsgain/parsers/robots.hpp"
 
+#include "test_files.hpp"
 #include <gtest/gtest.h>
 
 namespace {
 
-const std::string examples = OBSGAIN_EXAMPLES_DIR;
+using obsgain_test::examples;
 
 // Polarisation of the quadratic form A(q, ·): (A(e_j + e_k) - A(e_j) - A(e_k)) / 2, an independent way to the
 // tensors that the chain computes entry by entry with its bilinear Newton–Euler pass.

@@ -23,7 +23,7 @@ namespace {
 using obsgain_test::read_text;
 using obsgain_test::write_temp_file;
 
-const std::string examples = OBSGAIN_EXAMPLES_DIR;
+using obsgain_test::examples;
 
 // KDL's chain from the file's root to `tip`, gravity -9.81 z.
 struct KdlReference {

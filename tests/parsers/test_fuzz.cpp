@@ -20,7 +20,7 @@ namespace {
 using obsgain_test::read_text;
 using obsgain_test::write_temp_file;
 
-const std::string examples = OBSGAIN_EXAMPLES_DIR;
+using obsgain_test::examples;
 
 std::string mutate(std::string text, std::mt19937_64& rng) {
   static const std::vector<std::string> tokens = {"1e999", "-1e999", "nan", "0", "-1", "1e308", "\"", "<", ">", "}",

@@ -6,6 +6,7 @@
 #include "obsgain/parsers/model_file.hpp"
 #include "obsgain/parsers/robots.hpp"
 
+#include "test_files.hpp"
 #include <gtest/gtest.h>
 
 #include <fstream>
@@ -13,7 +14,7 @@
 
 namespace {
 
-const std::string examples = OBSGAIN_EXAMPLES_DIR;
+using obsgain_test::examples;
 
 TEST(ModelFile, PendubotFileEqualsTheBuiltIn) {
   const obsgain::Model file = obsgain::load_robot({examples + "/pendubot.json"});
@@ -60,7 +61,7 @@ nlohmann::json valid() {
                                    "friction": [0.5, 0.2], "velocity_bounds": [3, 4]})");
 }
 
-void expect_refused(const nlohmann::json& j, const std::string& field) {
+void expect_field_refused(const nlohmann::json& j, const std::string& field) {
   try {
     obsgain::model_from_json_text(j.dump(), "arm.json");
     FAIL() << "accepted " << j.dump();
@@ -74,34 +75,34 @@ TEST(ModelFile, MalformedDescriptionsNameTheField) {
   EXPECT_NO_THROW(obsgain::model_from_json_text(valid().dump(), "arm.json"));
   auto j = valid();
   j.erase("pi");
-  expect_refused(j, "'pi' is missing");
+  expect_field_refused(j, "'pi' is missing");
   j = valid();
   j["mass"] = 3;
-  expect_refused(j, "'mass' is not a model field");
+  expect_field_refused(j, "'mass' is not a model field");
   j = valid();
   j["pi"] = {1, 2, 3, 4};
-  expect_refused(j, "'pi' must be an array of 5 numbers");
+  expect_field_refused(j, "'pi' must be an array of 5 numbers");
   j = valid();
   j["pi"][2] = "0.3";
-  expect_refused(j, "'pi[2]' must be a number");
+  expect_field_refused(j, "'pi[2]' must be a number");
   j = valid();
   j["pi"] = {0.01, 0.01, 0.01, 0.1, 0.1};  // π1π2 = π3²: singular at q2 = 0
-  expect_refused(j, "singular or indefinite");
+  expect_field_refused(j, "singular or indefinite");
   j = valid();
   j["pi"][1] = -0.25;
-  expect_refused(j, "not positive definite");
+  expect_field_refused(j, "not positive definite");
   j = valid();
   j["type"] = "scara";
-  expect_refused(j, "'type' must be \"planar_2r\"");
+  expect_field_refused(j, "'type' must be \"planar_2r\"");
   j = valid();
   j["velocity_bounds"] = {3, -4};
-  expect_refused(j, "'velocity_bounds' must be positive");
+  expect_field_refused(j, "'velocity_bounds' must be positive");
   j = valid();
   j["friction"] = {0.5};
-  expect_refused(j, "'friction' must be an array of 2");
+  expect_field_refused(j, "'friction' must be an array of 2");
   j = valid();
   j["input_matrix"] = {{1, 0}};
-  expect_refused(j, "'input_matrix' must be 2 rows");
+  expect_field_refused(j, "'input_matrix' must be 2 rows");
   // JSON has no infinity: a number beyond double's range is refused as the text it is.
   std::string text = valid().dump();
   text.replace(text.find("\"name\""), 0, "\"g0\": 1e999, ");

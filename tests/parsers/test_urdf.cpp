@@ -16,7 +16,7 @@ namespace {
 using obsgain_test::read_text;
 using obsgain_test::write_temp_file;
 
-const std::string examples = OBSGAIN_EXAMPLES_DIR;
+using obsgain_test::examples;
 
 TEST(Urdf, PendubotUrdfHasThePendubotsDynamics) {
   const obsgain::Model urdf = obsgain::load_robot({examples + "/pendubot.urdf"});
@@ -173,7 +173,7 @@ std::string with_second_link(const std::string& inertial) {
   return text;
 }
 
-void expect_refused(const obsgain::RobotSource& source, const std::string& names) {
+void expect_urdf_refused(const obsgain::RobotSource& source, const std::string& names) {
   try {
     obsgain::load_robot(source);
     ADD_FAILURE() << source.robot << " should be refused";
@@ -187,23 +187,23 @@ TEST(Urdf, MalformedFilesAreRefusedNamingTheProblem) {
       R"(<inertial><origin xyz="0.1 0 0"/><mass value="0.5"/><inertia ixx="0.001" ixy="0" ixz="0" iyy="0.001" iyz="0" izz="0.001"/></inertial>)"));
   EXPECT_EQ(obsgain::load_robot({good}).dof(), 2);
 
-  expect_refused({"/nonexistent/arm.urdf"}, "cannot read URDF file '/nonexistent/arm.urdf'");
-  expect_refused({write_temp_file("broken.urdf", "<robot name='r'><link name='a'></robot>")}, "broken XML at line 1");
-  expect_refused({write_temp_file("not_urdf.urdf", "<robot name='r'><joint name='j' type='revolute'/></robot>")},
+  expect_urdf_refused({"/nonexistent/arm.urdf"}, "cannot read URDF file '/nonexistent/arm.urdf'");
+  expect_urdf_refused({write_temp_file("broken.urdf", "<robot name='r'><link name='a'></robot>")}, "broken XML at line 1");
+  expect_urdf_refused({write_temp_file("not_urdf.urdf", "<robot name='r'><joint name='j' type='revolute'/></robot>")},
                  "not a valid URDF");
-  expect_refused({good, "base", "forearm", {}}, "no link 'forearm'");
-  expect_refused({good, "l2", "base", {}}, "no chain from 'l2' down to 'base'");
-  expect_refused({good, "", "", {1}}, "the chain has 2 joints, got 1 flags");
-  expect_refused({good, "", "", {1, 2}}, "flag 2 = 2 must be 0 or 1");
+  expect_urdf_refused({good, "base", "forearm", {}}, "no link 'forearm'");
+  expect_urdf_refused({good, "l2", "base", {}}, "no chain from 'l2' down to 'base'");
+  expect_urdf_refused({good, "", "", {1}}, "the chain has 2 joints, got 1 flags");
+  expect_urdf_refused({good, "", "", {1, 2}}, "flag 2 = 2 must be 0 or 1");
   // The last link carries nothing: joint j2 moves no inertia and M(q) is singular.
-  expect_refused({write_temp_file("massless.urdf", with_second_link(""))}, "joint 'j2' moves no mass or inertia");
-  expect_refused({write_temp_file("zero_mass.urdf", with_second_link(
+  expect_urdf_refused({write_temp_file("massless.urdf", with_second_link(""))}, "joint 'j2' moves no mass or inertia");
+  expect_urdf_refused({write_temp_file("zero_mass.urdf", with_second_link(
                      R"(<inertial><mass value="0"/><inertia ixx="0" ixy="0" ixz="0" iyy="0" iyz="0" izz="0"/></inertial>)"))},
                  "joint 'j2' moves no mass or inertia");
   std::string unlimited = two_links;
   unlimited.replace(unlimited.find(R"(name="j2" type="continuous")"), 27, R"(name="j2" type="revolute")");
-  expect_refused({write_temp_file("unlimited.urdf", unlimited)}, "not a valid URDF: Joint [j2] is of type REVOLUTE but it does not specify limits");
-  expect_refused({examples + "/pendubot.json", "", "", {1, 0}}, "apply to URDF robots only");
+  expect_urdf_refused({write_temp_file("unlimited.urdf", unlimited)}, "not a valid URDF: Joint [j2] is of type REVOLUTE but it does not specify limits");
+  expect_urdf_refused({examples + "/pendubot.json", "", "", {1, 0}}, "apply to URDF robots only");
 }
 
 }  // namespace

@@ -12,8 +12,12 @@
 #include <algorithm>
 #include <cfenv>
 #include <cmath>
+#include <limits>
 
 namespace obsgain {
+
+// The upper end of a bound nothing has bounded yet.
+inline constexpr double kInfinity = std::numeric_limits<double>::infinity();
 
 // Boost's cos (and sin, computed as a shifted cos) call cos_down/cos_up on a reduced argument; widen
 // glibc's result (accurate to < 1 ulp in every rounding mode) outward by 4 ulps and clamp to [-1, 1].
