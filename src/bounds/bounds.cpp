@@ -195,6 +195,16 @@ class LargestSingularValue {
     return true;
   }
 
+  // True when λ_max(G) <= the maximum so far is shown (a Frobenius or a Cholesky test): nothing G bounds can beat it.
+  bool cannot_beat(const Eigen::MatrixXd& G) {
+    if (best_squared_ < 0.0) return false;
+    if (G.squaredNorm() <= best_squared_ * best_squared_) return true;
+    shifted_ = -G;
+    shifted_.diagonal().array() += best_squared_;
+    llt_.compute(shifted_);
+    return llt_.info() == Eigen::Success;
+  }
+
   double value() const { return std::sqrt(std::max(best_squared_, 0.0)); }
 
  private:
@@ -224,7 +234,9 @@ double coriolis_jacobian_maximum(const Model& model, const Eigen::VectorXd& q, c
 
 // Choices for L_joint: vertex index in the low n bits, saturation pattern in the next n bits. With
 // X = A D + R, A = M⁻¹J, R = M⁻¹F: XᵀX = D AᵀA D + D AᵀR + RᵀA D + RᵀR, so each of the 2^n patterns costs
-// O(n²) once the three Gram blocks of a vertex are formed.
+// O(n²) once the three Gram blocks of a vertex are formed. A vertex whose patterns cannot beat the maximum so far is
+// passed over: X Xᵀ ≼ (A + R)(A + R)ᵀ + R Rᵀ for every pattern (docs/theory.md, "Every saturation pattern at once"),
+// and without friction only D = I can (||A D|| <= ||A||).
 // With a scaling T = diag(t), A and R become T A T⁻¹ and T R T⁻¹ (D is diagonal: T (A D + R) T⁻¹ = T A T⁻¹ D + T R T⁻¹).
 double joint_lipschitz_maximum(const Model& model, const Eigen::VectorXd& q, const Eigen::VectorXd& velocity_bounds,
                                const Eigen::VectorXd& scaling, int& choice) {
@@ -239,12 +251,18 @@ double joint_lipschitz_maximum(const Model& model, const Eigen::VectorXd& q, con
   const Eigen::MatrixXd RR = R.transpose() * R;
   LargestSingularValue largest(n);
   Eigen::MatrixXd A(n, n), AA(n, n), AR(n, n), G(n, n);
+  const bool frictionless = model.friction.isZero(0.0);
+  const Eigen::MatrixXd RRt = R * R.transpose();
+  Eigen::MatrixXd envelope(n, n);
   for (unsigned c = first_vertex; c < vertex_count; ++c) {
     A = t.asDiagonal() * llt.solve(coriolis_jacobian(N, vertex(velocity_bounds, c))) * t.cwiseInverse().asDiagonal();
+    envelope.noalias() = (A + R) * (A + R).transpose();
+    envelope += RRt;
+    if (largest.cannot_beat(envelope)) continue;
     AA.noalias() = A.transpose() * A;
     AR.noalias() = A.transpose() * R;
     // Full patterns first: they usually win, and a high running maximum prunes the rest.
-    for (unsigned s = vertex_count; s-- > 0;) {
+    for (unsigned s = vertex_count; s-- > (frictionless ? vertex_count - 1 : 0u);) {
       for (int j = 0; j < n; ++j) {
         const bool dj = (s >> j) & 1u;
         for (int i = 0; i < n; ++i) {

@@ -1,5 +1,6 @@
 #include "obsgain/bounds/box_bounds.hpp"
 
+#include "obsgain/bounds/box_forms.hpp"
 #include "obsgain/bounds/taylor_matrix.hpp"
 #include "obsgain/model/dynamics.hpp"
 #include "obsgain/numerics/spectrum.hpp"
@@ -12,78 +13,8 @@ namespace obsgain {
 
 namespace {
 
-static_assert(kTaylorSymbols <= kMaxDirections, "the Christoffel tensors differentiate along every searched joint");
-
-// The model's M (and N) over one box of the searched joints, as second-order Taylor forms: symbol k is side k.
-struct BoxDynamics {
-  int n = 0, m = 0;
-  std::vector<double> radius;       // of each side
-  std::vector<Taylor> M, N;         // row-major: M[i * n + j], N[(i * n + j) * n + k]
-  std::vector<double> sensitivity;  // of M to each side: Σ over entries of its first- and second-order coefficients
-};
-
-// Σ over M's entries of |a_k| + Σ_{l} |b_kl|: how much of M's variation over the box comes from side k.
-std::vector<double> sensitivities(const std::vector<Taylor>& M, int m) {
-  std::vector<double> s(static_cast<std::size_t>(m), 0.0);
-  for (const Taylor& x : M)
-    for (int k = 0; k < m; ++k) {
-      s[k] += std::abs(x.a[k]);
-      for (int l = 0; l < m; ++l) s[k] += std::abs(x.b[kPairs.index[k][l]]);
-    }
-  return s;
-}
-
-// The sensitivity of M to side k is r_k Σ_ij sup |∂M_ij/∂q_k| over the box, from the derivatives the tensors are
-// computed from (or, for M alone, from derivatives on intervals): it sees a side's influence even where its
-// trigonometric enclosure went constant and its coefficients vanished into the remainder.
-BoxDynamics box_dynamics(const Model& model, const JointSearch& s, const std::vector<Interval>& box, bool tensors) {
-  BoxDynamics d;
-  d.n = model.dof();
-  d.m = static_cast<int>(box.size());
-  std::vector<Taylor> q(static_cast<std::size_t>(d.n));
-  for (int i = 0; i < d.n; ++i) q[i] = Taylor(s.fixed_q(i));
-  for (int k = 0; k < d.m; ++k) {
-    // [lo, hi] inside centre ± radius (radius rounded up).
-    const double c = centre(box[k]);
-    const double radius = std::max(box[k].upper() - c, c - box[k].lower()) * (1.0 + 0x1p-50) + kTaylorUnderflow;
-    q[static_cast<std::size_t>(s.joints[k])] = Taylor::symbol(c, radius, k);
-    d.radius.push_back(radius);
-  }
-  const std::size_t entries = static_cast<std::size_t>(d.n * d.n);
-  d.M.resize(entries);
-  if (std::holds_alternative<Planar2RParameters>(model.structure)) {  // one searched joint: no split to choose
-    mass_matrix_of(model, q.data(), d.M.data());
-    d.sensitivity = sensitivities(d.M, d.m);
-    if (tensors) {
-      d.N.resize(entries * static_cast<std::size_t>(d.n));
-      coriolis_tensors_of(model, q.data(), d.N.data());
-    }
-    return d;
-  }
-  if (!tensors) {  // M alone: the derivatives' enclosures by intervals, cheaper than on forms
-    mass_matrix_of(model, q.data(), d.M.data());
-    std::vector<Interval> qi(static_cast<std::size_t>(d.n));
-    for (int i = 0; i < d.n; ++i) qi[i] = Interval(s.fixed_q(i));
-    for (int k = 0; k < d.m; ++k) qi[static_cast<std::size_t>(s.joints[k])] = box[k];
-    const std::vector<Dual<Interval>> M = mass_matrix_with_derivatives(model, s.joints, qi.data());
-    d.sensitivity.assign(static_cast<std::size_t>(d.m), 0.0);
-    for (std::size_t e = 0; e < entries; ++e)
-      for (int k = 0; k < d.m; ++k) d.sensitivity[k] += d.radius[k] * boost::numeric::norm(M[e].derivative[k]);
-    return d;
-  }
-  const std::vector<Dual<Taylor>> M = mass_matrix_with_derivatives(model, s.joints, q.data());
-  d.sensitivity.assign(static_cast<std::size_t>(d.m), 0.0);
-  for (std::size_t e = 0; e < entries; ++e) {
-    d.M[e] = M[e].value;
-    for (int k = 0; k < d.m; ++k) d.sensitivity[k] += d.radius[k] * (std::abs(M[e].derivative[k].c) + M[e].derivative[k].radius());
-  }
-  d.N.resize(entries * static_cast<std::size_t>(d.n));
-  christoffel_tensors_from(d.n, s.joints, M, d.N.data());
-  return d;
-}
-
 // J_j = ∂A/∂v at v = e_j as forms, (J_j)_ik = 2 N_i[j][k]: J(q, w) = Σ_j w_j J_j (docs/theory.md, "The constants").
-std::vector<Taylor> unit_jacobian(const BoxDynamics& d, int j) {
+std::vector<Taylor> unit_jacobian(const BoxForms& d, int j) {
   const int n = d.n;
   std::vector<Taylor> J(static_cast<std::size_t>(n * n));
   for (int i = 0; i < n; ++i)
@@ -96,44 +27,49 @@ std::vector<Taylor> unit_jacobian(const BoxDynamics& d, int j) {
 // still a curvature), and its share of the third-order remainder: mostly by how much of M's variation comes from it
 // (a side M does not depend on adds nothing), a tenth by its width (so that a wide side whose trigonometric
 // enclosure went constant is split in the end). The largest over the choices.
-void weigh_sides(const TaylorMatrix& X, const BoxDynamics& d, std::vector<double>& weights) {
-  weights.resize(X.slopes.size(), 0.0);
+void weigh_sides(const TaylorMatrix& X, const BoxForms& d, std::vector<double>& weights) {
+  weights.resize(d.sides.size(), 0.0);
   double widths = 0.0, sensitivity = 0.0;
-  for (std::size_t k = 0; k < d.radius.size(); ++k) {
-    widths += d.radius[k];
+  for (std::size_t k = 0; k < d.sides.size(); ++k) {
+    widths += d.sides[k].radius;
     sensitivity += d.sensitivity[k];
   }
   const auto pairs = symbol_pairs(X.symbols());
-  std::vector<double> variation(X.slopes.size());
-  for (std::size_t k = 0; k < X.slopes.size(); ++k) variation[k] = X.slopes[k].norm();
+  std::vector<double> variation(d.sides.size(), 0.0);  // of each side, over its symbols
+  // Symbols beyond the box's (velocity components carried as symbols) belong to no side.
+  const auto side = [&](int symbol) { return symbol < d.symbols ? d.side_of[static_cast<std::size_t>(symbol)] : -1; };
+  for (std::size_t k = 0; k < X.slopes.size(); ++k)
+    if (side(static_cast<int>(k)) >= 0) variation[side(static_cast<int>(k))] += X.slopes[k].norm();
   for (std::size_t p = 0; p < pairs.size(); ++p) {
     const double h = X.curvatures[p].norm();
-    variation[pairs[p].first] += h;
-    if (pairs[p].second != pairs[p].first) variation[pairs[p].second] += h;
+    const int first = side(pairs[p].first), second = side(pairs[p].second);
+    if (first >= 0) variation[first] += h;
+    if (second >= 0 && second != first) variation[second] += h;
   }
-  for (std::size_t k = 0; k < X.slopes.size(); ++k) {
-    const double share = 0.1 * d.radius[k] / widths + (sensitivity > 0.0 ? 0.9 * d.sensitivity[k] / sensitivity : 0.9 * d.radius[k] / widths);
+  for (std::size_t k = 0; k < d.sides.size(); ++k) {
+    const double radius = d.sides[k].radius;
+    const double share = 0.1 * radius / widths + (sensitivity > 0.0 ? 0.9 * d.sensitivity[k] / sensitivity : 0.9 * radius / widths);
     weights[k] = std::max(weights[k], variation[k] + X.remainder * share);
   }
 }
 
 // J_j over the box as Taylor matrices.
-std::vector<TaylorMatrix> unit_jacobians(const BoxDynamics& d) {
+std::vector<TaylorMatrix> unit_jacobians(const BoxForms& d) {
   std::vector<TaylorMatrix> J;
-  for (int j = 0; j < d.n; ++j) J.push_back(taylor_matrix(unit_jacobian(d, j).data(), d.n, d.n, d.m));
+  for (int j = 0; j < d.n; ++j) J.push_back(taylor_matrix(unit_jacobian(d, j).data(), d.n, d.n, d.symbols));
   return J;
 }
 
 // A proven lower bound of λmin(M) over the box (the model's inertia floor where that is higher).
-double inertia_lower(const Model& model, const BoxDynamics& d, std::vector<double>* weights) {
-  const TaylorMatrix M = taylor_matrix(d.M.data(), d.n, d.n, d.m);
+double inertia_lower(const Model& model, const BoxForms& d, std::vector<double>* weights) {
+  const TaylorMatrix M = taylor_matrix(d.M.data(), d.n, d.n, d.symbols);
   if (weights) weigh_sides(M, d, *weights);
   return std::max(smallest_eigenvalue_lower(M), inertia_floor(model));
 }
 
 // Where M⁻¹ cannot be enclosed (a box too wide for the Neumann series): ||M⁻¹(J D + F)|| <= (||J|| + ||F||) / λmin(M),
 // finite once M is proven positive definite on the box.
-BoxBound lipschitz_by_inertia_floor(const Model& model, const BoxDynamics& d, const std::vector<TaylorMatrix>& J,
+BoxBound lipschitz_by_inertia_floor(const Model& model, const BoxForms& d, const std::vector<TaylorMatrix>& J,
                                     const Eigen::MatrixXd& vertices, unsigned first, unsigned count) {
   BoxBound bound{kInfinity, {}};
   const double lambda = inertia_lower(model, d, &bound.split_weight);
@@ -224,12 +160,20 @@ double refine_choices(std::vector<Choice>& choices, double lower, const Refine& 
 
 }  // namespace
 
-BoxCosts box_costs(int n, int m) {
-  // Per core, in seconds (fits of timings on the reference machine, within about 30 % for n = 2 ... 7), halved
-  // for its two cores.
-  const double n2 = static_cast<double>(n * n), terms = 1.0 + m + pair_count(m);  // a Taylor matrix's n x n parts
-  const BoxCosts core{7e-6 * n2, 77e-6 * n2, 1.25e-6 + 11e-9 * n2 * terms, 0.09e-6 + 8.5e-9 * n * terms};
-  return {core.inertia / 2, core.tensors / 2, core.refinement / 2, core.choice / 2};
+BoxCosts box_costs(int n, int symbols, bool frictionless) {
+  // Per core, in seconds: fits of timings on the reference machine for n = 2 ... 7 joints, on narrow boxes and on arcs
+  // (within about 30 %), halved for its two cores. `terms`: a Taylor matrix's n x n parts (centre, slopes, curvatures).
+  const double n1 = n, n2 = n1 * n1, n3 = n2 * n1, s = symbols, terms = 1.0 + s + pair_count(symbols);
+  const double vertices = std::ldexp(1.0, frictionless ? n - 1 : n);
+  const BoxCosts core{3e-6 * n3,
+                      0.2e-3 + 12.5e-6 * n3 * (1.0 + 0.047 * s),
+                      0.05e-3 + 51e-9 * n2 * n2 * s,
+                      1e-6 + 7e-9 * n2 * terms,
+                      3e-6 + 12e-9 * n2 * terms,
+                      0.09e-6 + 8.5e-9 * n1 * terms,
+                      5e-6 + 7.5e-9 * vertices * n3};
+  return {core.inertia / 2, core.forms / 2,  core.products / 2, core.vertex / 2,
+          core.refinement / 2, core.choice / 2, core.point / 2};
 }
 
 DiagonalScaling diagonal_scaling(const Eigen::VectorXd& t) {
@@ -244,28 +188,30 @@ DiagonalScaling diagonal_scaling(const Eigen::VectorXd& t) {
 BoxBounds::BoxBounds(const Model& model, const JointSearch& search, const Eigen::VectorXd& velocity_bounds,
                      const Eigen::VectorXd& scaling)
     : model_(model), search_(search), velocity_bounds_(velocity_bounds), vertices_(box_vertices(velocity_bounds)),
-      count_(static_cast<unsigned>(vertices_.cols())), half_(count_ / 2), frictionless_(model.friction.isZero(0.0)),
-      costs_(box_costs(model.dof(), static_cast<int>(search.joints.size()))) {
+      count_(static_cast<unsigned>(vertices_.cols())), half_(count_ / 2), frictionless_(model.friction.isZero(0.0)) {
   if (scaling.size()) scaling_ = diagonal_scaling(scaling);
 }
 
 BoxBound BoxBounds::inverse_inertia(const std::vector<Interval>& box) const {
-  BoxBound bound{kInfinity, {}, costs_.inertia + costs_.refinement};
-  const double lambda = inertia_lower(model_, box_dynamics(model_, search_, box, false), &bound.split_weight);
+  const BoxForms d = box_forms(model_, search_, box, false);
+  const BoxCosts costs = box_costs(d.n, d.symbols, frictionless_);
+  BoxBound bound{kInfinity, {}, costs.inertia + costs.refinement};
+  const double lambda = inertia_lower(model_, d, &bound.split_weight);
   if (lambda > 0.0) bound.upper = (Interval(1.0) / Interval(lambda)).upper();
   return bound;
 }
 
 BoxBound BoxBounds::jacobian(const std::vector<Interval>& box, double lower) const {
-  const BoxDynamics d = box_dynamics(model_, search_, box, true);
+  const BoxForms d = box_forms(model_, search_, box, true);
   const std::vector<TaylorMatrix> J = unit_jacobians(d);
   const std::vector<double> J_frobenius = frobenius_uppers(J);
-  BoxBound bound{0.0, {}, costs_.tensors};
+  const BoxCosts costs = box_costs(d.n, d.symbols, frictionless_);
+  BoxBound bound{0.0, {}, costs.forms};
   for (unsigned c = half_; c < count_; ++c) {
     const TaylorMatrix Jw = linear_combination(J, vertices_.col(c), J_frobenius);
     weigh_sides(Jw, d, bound.split_weight);
     const double floor = std::max(bound.upper, lower);
-    bound.work += costs_.choice + (Jw.frobenius_upper() > floor ? costs_.refinement : 0.0);
+    bound.work += costs.vertex + (Jw.frobenius_upper() > floor ? costs.refinement : 0.0);
     bound.upper = std::max(bound.upper, norm_upper(Jw, floor));
   }
   return bound;
@@ -283,7 +229,7 @@ struct LipschitzTerms {
 };
 
 // With a scaling, the terms are T A_j S and T R S, and the tail's matrix is stretched by at most max t · max s.
-LipschitzTerms lipschitz_terms(const Model& model, const BoxDynamics& d, const std::vector<TaylorMatrix>& J,
+LipschitzTerms lipschitz_terms(const Model& model, const BoxForms& d, const std::vector<TaylorMatrix>& J,
                                const Eigen::VectorXd& velocity_bounds, const TaylorInverse& inverse_M,
                                const DiagonalScaling* scaling = nullptr) {
   LipschitzTerms t;
@@ -292,24 +238,23 @@ LipschitzTerms lipschitz_terms(const Model& model, const BoxDynamics& d, const s
     if (scaling)
       for (int i = 0; i < d.n; ++i)
         for (int k = 0; k < d.n; ++k) X[i * d.n + k] = (X[i * d.n + k] * scaling->rows(i)) * scaling->columns(k);
-    return taylor_matrix(X.data(), d.n, d.n, d.m);
+    return taylor_matrix(X.data(), d.n, d.n, d.symbols);
   };
   for (int j = 0; j < d.n; ++j) t.A.push_back(times_inverse(unit_jacobian(d, j)));
   std::vector<Taylor> F(static_cast<std::size_t>(d.n * d.n));
   for (int i = 0; i < d.n * d.n; ++i) F[i] = Taylor(model.friction(i / d.n, i % d.n));
   t.R = times_inverse(F);
   const UpwardRounding upward;
-  t.tail = (Interval(inverse_M.tail) * Interval(every_choice_upper(J, velocity_bounds, taylor_matrix(F.data(), d.n, d.n, d.m)))).upper();
+  t.tail = (Interval(inverse_M.tail) * Interval(every_choice_upper(J, velocity_bounds, taylor_matrix(F.data(), d.n, d.n, d.symbols)))).upper();
   if (scaling) t.tail = (Interval(t.tail) * Interval(scaling->stretch)).upper();
   return t;
 }
 
 // The velocity box's vertices to visit (columns first..count-1), and whether F = 0 (then only the full pattern).
 struct VelocityChoices {
-  const Eigen::MatrixXd& vertices;
-  unsigned first, count;
+  const Eigen::VectorXd& velocity_bounds;
   bool frictionless;
-  const BoxCosts& costs;
+  BoxCosts costs;
 };
 
 // The centre's Gram blocks of one vertex, A = A(w) at the centre and R: (A D + R)ᵀ(A D + R) = D AᵀA D + D AᵀR + RᵀA D + RᵀR
@@ -319,48 +264,130 @@ struct CentreGram {
   double magnitude;
 };
 
-// The maximum over the vertices w and the saturation patterns D of ||A(w) D + R||. Each choice's cheap bound first;
-// a choice whose cheap bound beats the running maximum is then tested on its centre (a Cholesky test, O(n³/6)), and
-// refined (norm_upper) only when the centre's norm plus the variation may beat it.
-double choices_upper(const LipschitzTerms& t, const BoxDynamics& d, const VelocityChoices& v, double lower,
-                     std::vector<double>& weights, double& work) {
-  std::vector<TaylorMatrix> Aw;
-  const std::vector<double> A_frobenius = frobenius_uppers(t.A);
-  std::vector<double> Aw_frobenius;
-  std::vector<CentreGram> grams;
+// The patterns of one vertex one by one, A = A(w) over the box: each pattern's cheap bound first; a pattern whose
+// cheap bound beats the running maximum is then tested on its centre (a Cholesky test, O(n³/6)), and refined
+// (norm_upper) only when the centre's norm plus the variation may beat it.
+double patterns_upper(const TaylorMatrix& A, double A_frobenius, const TaylorMatrix& R, double floor,
+                      const BoxCosts& costs, double& work) {
+  const auto n = static_cast<int>(A.centre.cols());
+  const double size = A.centre.norm() + R.centre.norm();
+  const CentreGram g{A.centre.transpose() * A.centre, A.centre.transpose() * R.centre, size * size};
+  const Eigen::MatrixXd RR = R.centre.transpose() * R.centre;
+  const PatternColumns columns(A, R);
   std::vector<Choice> choices;
-  const Eigen::MatrixXd RR = t.R.centre.transpose() * t.R.centre;
-  for (unsigned c = v.first; c < v.count; ++c) {
-    Aw.push_back(linear_combination(t.A, v.vertices.col(c), A_frobenius));
-    Aw_frobenius.push_back(Aw.back().frobenius_upper());
-    weigh_sides(Aw.back(), d, weights);
-    const Eigen::MatrixXd& A = Aw.back().centre;
-    const double size = A.norm() + t.R.centre.norm();
-    grams.push_back({A.transpose() * A, A.transpose() * t.R.centre, size * size});
-    const auto index = static_cast<unsigned>(Aw.size() - 1);
-    const PatternColumns columns(Aw.back(), t.R);
-    const unsigned full = (1u << d.n) - 1;
-    for (unsigned bits = v.frictionless ? full : 0u; bits <= full; ++bits) {
-      const PatternColumns::Sizes sizes = columns.pattern(bits);
-      choices.push_back({(sizes.centre + sizes.variation) * kTaylorInflation, sizes.variation, index, bits});
-    }
+  for (unsigned bits = 0; bits < (1u << n); ++bits) {
+    const PatternColumns::Sizes sizes = columns.pattern(bits);
+    choices.push_back({(sizes.centre + sizes.variation) * kTaylorInflation, sizes.variation, 0u, bits});
   }
-  work += static_cast<double>(choices.size()) * v.costs.choice;
+  work += static_cast<double>(choices.size()) * costs.choice;
   int refined = 0, full = 0;
-  const double R_frobenius = t.R.frobenius_upper();
-  TaylorMatrix X;  // the refined choice's Φ, its storage reused
-  const double upper = refine_choices(choices, lower, [&](const Choice& choice, double floor) {
-    Eigen::VectorXd D(d.n);
-    for (int j = 0; j < d.n; ++j) D(j) = (choice.bits >> j) & 1u;
-    const CentreGram& g = grams[choice.vertex];
+  const double R_frobenius = R.frobenius_upper();
+  TaylorMatrix X;  // the refined pattern's Φ, its storage reused
+  const double upper = refine_choices(choices, floor, [&](const Choice& choice, double above) {
+    Eigen::VectorXd D(n);
+    for (int j = 0; j < n; ++j) D(j) = (choice.bits >> j) & 1u;
     const Eigen::MatrixXd G = D.asDiagonal() * g.AA * D.asDiagonal() + D.asDiagonal() * g.AR +
                               g.AR.transpose() * D.asDiagonal() + RR;
-    if (centre_norm_below(G, floor - choice.variation, g.magnitude)) return floor;
+    if (centre_norm_below(G, above - choice.variation, g.magnitude)) return above;
     ++full;
-    scaled_sum(Aw[choice.vertex], D, t.R, Aw_frobenius[choice.vertex] + R_frobenius, X);
-    return norm_upper(X, floor);
+    scaled_sum(A, D, R, A_frobenius + R_frobenius, X);
+    return norm_upper(X, above);
   }, refined);
-  work += refined * v.costs.choice + full * v.costs.refinement;
+  work += refined * costs.choice + full * costs.refinement;
+  return upper;
+}
+
+// One vertex w for every pattern at once: Aw = A(w) over the box and the envelope [Aw + R, R]ᵀ, whose norm bounds
+// ||Aw D + R|| for every D (without friction Aw itself: D = I is then the maximum).
+struct VertexEnvelope {
+  TaylorMatrix Aw, envelope;
+  double Aw_frobenius = 0.0;
+};
+
+// Velocity components whose terms are this small against the largest (V_j ||A_j||_F) are carried as symbols rather
+// than enumerated as vertices (on a seven-joint arm the wrist's three, which leaves 16 vertices of 128), while the box
+// is wide: a symbol's cross terms with the others do not shrink with the box, so a component is enumerated again once
+// its term is larger than the variation of every term over the box (and the bound converges as the box shrinks).
+constexpr double kSymbolicVelocityShare = 0.25;
+
+// Which velocity components are carried as symbols (docs/theory.md, "Every saturation pattern at once").
+std::vector<bool> symbolic_velocities(const std::vector<TaylorMatrix>& A, const std::vector<double>& A_frobenius,
+                                      const Eigen::VectorXd& V) {
+  std::vector<double> influence(A.size());
+  double variation = 0.0;
+  for (std::size_t j = 0; j < A.size(); ++j) {
+    const double Vj = V(static_cast<Eigen::Index>(j));
+    influence[j] = Vj * A_frobenius[j];
+    variation += Vj * std::max(0.0, A_frobenius[j] - A[j].centre.norm());
+  }
+  const double largest = *std::max_element(influence.begin(), influence.end());
+  std::vector<bool> free(influence.size());
+  for (std::size_t j = 0; j < influence.size(); ++j)
+    free[j] = influence[j] <= kSymbolicVelocityShare * largest && influence[j] <= variation;
+  return free;
+}
+
+// The velocity vertices over the components enumerated (the others at V_j, carried as symbols); without friction
+// w and -w give the same norms: only those with the first enumerated component positive.
+std::vector<Eigen::VectorXd> enumerated_vertices(const Eigen::VectorXd& V, const std::vector<bool>& free, bool frictionless) {
+  std::vector<Eigen::Index> enumerated;
+  for (Eigen::Index j = 0; j < V.size(); ++j)
+    if (!free[static_cast<std::size_t>(j)]) enumerated.push_back(j);
+  std::vector<Eigen::VectorXd> vertices;
+  const unsigned count = 1u << enumerated.size();
+  for (unsigned bits = frictionless && !enumerated.empty() ? 1u : 0u; bits < count; bits += frictionless ? 2u : 1u) {
+    Eigen::VectorXd w = V;
+    for (std::size_t e = 0; e < enumerated.size(); ++e) w(enumerated[e]) = (bits >> e) & 1u ? V(enumerated[e]) : -V(enumerated[e]);
+    vertices.push_back(std::move(w));
+  }
+  return vertices;
+}
+
+// The maximum over the vertices w and the saturation patterns D of ||A(w) D + R||, vertex by vertex in decreasing order
+// of the envelope's cheap bound: the envelope's centre tested (Cholesky), then its fine bound; the patterns one by one
+// (patterns_upper) only where what the envelope adds at the centre, at most ||R||² / (2 ||Aw + R||), is a tenth or
+// more of what its fine bound leaves above the centre's norm (near the end of a search; the arms measured lose
+// 0.06 % to 0.8 % to the envelope at a point, docs/theory.md).
+double choices_upper(const LipschitzTerms& t, const BoxForms& d, const VelocityChoices& v, double lower,
+                     std::vector<double>& weights, double& work) {
+  const std::vector<double> A_frobenius = frobenius_uppers(t.A);
+  const std::vector<bool> free = symbolic_velocities(t.A, A_frobenius, v.velocity_bounds);
+  const std::vector<Eigen::VectorXd> ws = enumerated_vertices(v.velocity_bounds, free, v.frictionless);
+  std::vector<VertexEnvelope> vertices;
+  std::vector<Choice> choices;
+  TaylorMatrix R;  // R over the vertices' symbols
+  double R_frobenius = 0.0;
+  for (const Eigen::VectorXd& w : ws) {
+    VertexEnvelope e;
+    e.Aw = linear_combination(t.A, w, free, A_frobenius);
+    if (vertices.empty()) {
+      R = with_symbols(t.R, e.Aw.symbols());
+      R_frobenius = R.frobenius_upper();
+    }
+    e.Aw_frobenius = e.Aw.frobenius_upper();
+    weigh_sides(e.Aw, d, weights);
+    e.envelope = v.frictionless ? e.Aw : pattern_envelope(e.Aw, R, e.Aw_frobenius + R_frobenius);
+    const double centre = e.envelope.centre.norm(), cheap = e.envelope.frobenius_upper();
+    choices.push_back({cheap, cheap - centre, static_cast<unsigned>(vertices.size()), 0u});
+    vertices.push_back(std::move(e));
+  }
+  work += static_cast<double>(choices.size()) * v.costs.vertex;
+  int refined = 0, full = 0;
+  const double R_centre = spectral_norm(t.R.centre);
+  const double upper = refine_choices(choices, lower, [&](const Choice& choice, double floor) {
+    const VertexEnvelope& e = vertices[choice.vertex];
+    const Eigen::MatrixXd& C = e.envelope.centre;
+    const double size = C.norm();
+    if (centre_norm_below(C.transpose() * C, floor - choice.variation, size * size)) return floor;
+    ++full;
+    const double fine = norm_upper(e.envelope, floor);
+    if (v.frictionless || fine <= floor) return fine;
+    const double sigma = spectral_norm(C), added = R_centre * R_centre / (2.0 * spectral_norm(e.Aw.centre + t.R.centre));
+    if (added < 0.1 * (fine - sigma)) return fine;
+    return std::min(fine, patterns_upper(e.Aw, e.Aw_frobenius, R, floor, v.costs, work));
+  }, refined);
+  // A centre test per vertex refined; an envelope (2n x n with friction) costs two n x n refinements.
+  work += refined * v.costs.choice + full * v.costs.refinement * (v.frictionless ? 1.0 : 2.0);
   return upper;
 }
 
@@ -378,23 +405,25 @@ BoxBound BoxBounds::joint_lipschitz(const std::vector<Interval>& box, double low
     bound.upper = (Interval(bound.upper) * Interval(scaling.restore)).upper();
     return bound;
   };
-  const auto by_inertia_floor = [&](const BoxDynamics& d, const std::vector<TaylorMatrix>& J) {
+  const auto by_inertia_floor = [&](const BoxForms& d, const std::vector<TaylorMatrix>& J) {
     BoxBound bound = lipschitz_by_inertia_floor(model_, d, J, vertices_, half_, count_);
     bound.upper = (Interval(bound.upper) * Interval(scaling.stretch)).upper();
     return bound;
   };
-  const BoxDynamics d = box_dynamics(model_, search_, box, true);
+  const BoxForms d = box_forms(model_, search_, box, true);
   const std::vector<TaylorMatrix> J = unit_jacobians(d);
-  const TaylorInverse inverse_M = inverse(d.M, d.n, d.m);
-  const double inertia_route_work = costs_.refinement * (1.0 + count_ - half_);
+  const TaylorInverse inverse_M = inverse(d.M, d.n, d.symbols);
+  // The branch and bound evaluates the value attained at the box's midpoint with every bound: counted here.
+  const BoxCosts costs = box_costs(d.n, d.symbols, frictionless_);
+  const double inertia_route_work = costs.refinement + (count_ - half_) * (costs.vertex + costs.refinement);
   if (!inverse_M.proven) {
     BoxBound bound = by_inertia_floor(d, J);
-    bound.work = costs_.tensors + inertia_route_work;
+    bound.work = costs.point + costs.forms + inertia_route_work;
     return restored(std::move(bound));
   }
   const LipschitzTerms t = lipschitz_terms(model_, d, J, velocity_bounds_, inverse_M, scaling_ ? &*scaling_ : nullptr);
   const UpwardRounding upward;
-  BoxBound bound{every_choice_upper(t.A, velocity_bounds_, t.R) + t.tail, {}, costs_.tensors};
+  BoxBound bound{every_choice_upper(t.A, velocity_bounds_, t.R) + t.tail, {}, costs.point + costs.forms + costs.products};
   if (bound.upper <= lower) {  // cannot beat the value attained: no choice needs enumerating
     weigh_sides(linear_combination(t.A, velocity_bounds_, frobenius_uppers(t.A)), d, bound.split_weight);
     return restored(std::move(bound));
@@ -406,7 +435,7 @@ BoxBound BoxBounds::joint_lipschitz(const std::vector<Interval>& box, double low
     if (by_inertia.upper <= lower) return restored({by_inertia.upper, std::move(by_inertia.split_weight), bound.work});
     cap = by_inertia.upper;
   }
-  const VelocityChoices choices{vertices_, frictionless_ ? half_ : 0u, count_, frictionless_, costs_};
+  const VelocityChoices choices{velocity_bounds_, frictionless_, costs};
   const double polynomial = choices_upper(t, d, choices, lower - t.tail, bound.split_weight, bound.work);
   bound.upper = std::min(cap, polynomial + t.tail);
   return restored(std::move(bound));
@@ -417,8 +446,8 @@ BoxBound BoxBounds::joint_lipschitz(const std::vector<Interval>& box, double low
 namespace obsgain {
 
 PolytopeCell BoxBounds::perturbation_cell(const std::vector<Interval>& box) const {
-  const BoxDynamics d = box_dynamics(model_, search_, box, true);
-  const TaylorInverse inverse_M = inverse(d.M, d.n, d.m);
+  const BoxForms d = box_forms(model_, search_, box, true);
+  const TaylorInverse inverse_M = inverse(d.M, d.n, d.symbols);
   PolytopeCell cell;
   cell.box = box;
   if (!inverse_M.proven) return cell;

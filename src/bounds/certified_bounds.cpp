@@ -71,9 +71,9 @@ std::string search_request(const Model& model, const Eigen::VectorXd& velocity_b
 }
 
 std::string certification_unavailable(const Model& model) {
-  if (static_cast<int>(configuration_joints(model).size()) > kTaylorSymbols)
+  if (static_cast<int>(configuration_joints(model).size()) > kMaxDirections)
     return fmt::format("model '{}' depends on {} joint positions; certified bounds search at most {}", model.name,
-                       configuration_joints(model).size(), kTaylorSymbols);
+                       configuration_joints(model).size(), kMaxDirections);
   return {};
 }
 
@@ -108,7 +108,7 @@ std::optional<CertifiedBounds> certify_bounds(const Model& model, const BoundRep
     if (numeric.scaled())
       result.L_scaled = lipschitz(scaled_share, "L_scaled", scaled_boxes, numeric.scaling, numeric.L_scaled.q);
   };
-  if (joint) run_L(numeric.scaled() ? 0.45 : 0.9, 0.8);
+  if (joint) run_L(numeric.scaled() ? 0.475 : 0.95, 0.8);
   result.M0 = search(joint ? 0.6 : 0.5, "M0", [&](const auto& box, double) { return boxes.inverse_inertia(box); },
                      [&](const Eigen::VectorXd& q) { return inverse_inertia_norm(model, q); }, numeric.M0.q);
   result.B = search(joint ? 1.0 : 0.8, "B", [&](const auto& box, double lower) { return boxes.jacobian(box, lower); },

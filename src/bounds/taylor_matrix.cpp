@@ -62,9 +62,12 @@ double quadratic_polynomial_upper(const Eigen::VectorXd& l, const Eigen::MatrixX
 
 std::vector<std::pair<int, int>> symbol_pairs(int symbols) {
   std::vector<std::pair<int, int>> pairs;
-  for (int p = 0; p < pair_count(symbols); ++p) pairs.emplace_back(kPairs.first[p], kPairs.second[p]);
+  for (int l = 0; l < symbols; ++l)
+    for (int k = 0; k <= l; ++k) pairs.emplace_back(k, l);
   return pairs;
 }
+
+int pair_index(int k, int l) { return k <= l ? l * (l + 1) / 2 + k : k * (k + 1) / 2 + l; }
 
 double TaylorMatrix::frobenius_upper() const {
   double bound = frobenius(centre) + remainder;
@@ -102,8 +105,8 @@ TaylorMatrix taylor_matrix(const Taylor* entries, int rows, int cols, int symbol
     for (int j = 0; j < cols; ++j) {
       const Taylor& x = entries[i * cols + j];
       X.centre(i, j) = x.c;
-      for (int k = 0; k < symbols; ++k) X.slopes[k](i, j) = x.a[k];
-      for (std::size_t p = 0; p < pairs.size(); ++p) X.curvatures[p](i, j) = x.b[p];
+      for (int k = 0; k < symbols; ++k) X.slopes[k](i, j) = x.slope(k);
+      for (std::size_t p = 0; p < pairs.size(); ++p) X.curvatures[p](i, j) = x.curvature(static_cast<int>(p));
       X.entry_remainder(i, j) = x.r;
       squares += x.r * x.r;
     }
@@ -137,6 +140,44 @@ TaylorMatrix linear_combination(const std::vector<TaylorMatrix>& terms, const Ei
   return X;
 }
 
+TaylorMatrix linear_combination(const std::vector<TaylorMatrix>& terms, const Eigen::VectorXd& weights,
+                                const std::vector<bool>& free, const std::vector<double>& term_frobenius) {
+  Eigen::VectorXd fixed = weights;
+  std::vector<std::size_t> symbolic;
+  for (std::size_t j = 0; j < terms.size(); ++j)
+    if (free[j]) {
+      fixed(static_cast<Eigen::Index>(j)) = 0.0;
+      symbolic.push_back(j);
+    }
+  TaylorMatrix X = linear_combination(terms, fixed, term_frobenius);
+  if (symbolic.empty()) return X;
+  const int s = X.symbols(), all = s + static_cast<int>(symbolic.size());
+  X = with_symbols(X, all);
+  const auto pairs = symbol_pairs(all);
+  double remainder = X.remainder;
+  for (std::size_t r = 0; r < symbolic.size(); ++r) {
+    const TaylorMatrix& T = terms[symbolic[r]];
+    const double V = std::abs(weights(static_cast<Eigen::Index>(symbolic[r])));
+    const int omega = s + static_cast<int>(r);
+    X.slopes[omega] = V * T.centre;
+    for (int k = 0; k < s; ++k) X.curvatures[static_cast<std::size_t>(pair_index(k, omega))] = V * T.slopes[k];
+    double third = T.remainder;  // V ω (Σ H_p ε_p + Δ): third order, in norm
+    for (const Eigen::MatrixXd& H : T.curvatures) third += frobenius(H);
+    // The products V x rounded within 2⁻⁵² of their moduli: at most 2⁻⁵² V ||X_j||_F over the centre and slopes.
+    remainder += V * third + kTaylorRoundoff * V * term_frobenius[symbolic[r]];
+  }
+  X.remainder = up(remainder);
+  return X;
+}
+
+TaylorMatrix with_symbols(const TaylorMatrix& X, int symbols) {
+  TaylorMatrix Y = X;
+  const Eigen::MatrixXd zero = Eigen::MatrixXd::Zero(X.centre.rows(), X.centre.cols());
+  Y.slopes.resize(static_cast<std::size_t>(symbols), zero);
+  Y.curvatures.resize(static_cast<std::size_t>(pair_count(symbols)), zero);
+  return Y;
+}
+
 void scaled_sum(const TaylorMatrix& X, const Eigen::VectorXd& d, const TaylorMatrix& Y, double frobenius,
                 TaylorMatrix& out) {
   out.centre.noalias() = X.centre * d.asDiagonal();
@@ -155,6 +196,22 @@ void scaled_sum(const TaylorMatrix& X, const Eigen::VectorXd& d, const TaylorMat
   // (||X D||_F + ||Y||_F) per term, and ||X D||_F <= ||X||_F for d in [0, 1].
   out.remainder = up(X.remainder * d.cwiseAbs().maxCoeff() + Y.remainder + 2.0 * kTaylorRoundoff * frobenius);
   out.entry_remainder.resize(0, 0);  // known as a norm only from here
+}
+
+TaylorMatrix pattern_envelope(const TaylorMatrix& X, const TaylorMatrix& Y, double frobenius) {
+  const auto stacked = [](const Eigen::MatrixXd& x, const Eigen::MatrixXd& y) {
+    Eigen::MatrixXd z(x.cols() + y.cols(), x.rows());
+    z.topRows(x.cols()) = (x + y).transpose();
+    z.bottomRows(y.cols()) = y.transpose();
+    return z;
+  };
+  TaylorMatrix out;
+  out.centre = stacked(X.centre, Y.centre);
+  for (std::size_t k = 0; k < X.slopes.size(); ++k) out.slopes.push_back(stacked(X.slopes[k], Y.slopes[k]));
+  for (std::size_t p = 0; p < X.curvatures.size(); ++p) out.curvatures.push_back(stacked(X.curvatures[p], Y.curvatures[p]));
+  // The remainders [ΔX + ΔY, ΔY] in norm, and each entry x + y rounded within 2⁻⁵² of its modulus.
+  out.remainder = up(X.remainder + 2.0 * Y.remainder + kTaylorRoundoff * frobenius);
+  return out;
 }
 
 namespace {
@@ -410,26 +467,44 @@ TaylorInverse inverse(const std::vector<Taylor>& M, int n, int symbols) {
   TaylorInverse result;
   const Eigen::MatrixXd K = inverse_cholesky_factor(M, n);
   if (K.size() == 0) return result;
-  // Y = K M Kᵀ = K (K M)ᵀ (M symmetric), E = Y - I.
-  std::vector<Taylor> E = left_multiply(K, transpose(left_multiply(K, M, n), n), n);
-  for (int i = 0; i < n; ++i) E[i * n + i] = E[i * n + i] - 1.0;
-  const double eta = norm_upper(taylor_matrix(E.data(), n, n, symbols), 0.0);
-  if (!(eta < 1.0)) return result;
-  // Kᵀ (I - E + E²) K.
+  // Y = K M Kᵀ = K (K M)ᵀ (M symmetric) and M⁻¹ = Kᵀ Y⁻¹ K = c Kᵀ (I + E)⁻¹ K with E = c Y - I for any c > 0. c = 1
+  // where ||Y - I|| < 1; on a box where Y varies more, c = 2 / (λ_lo + λ_hi) centres Y's proven spectrum [λ_lo, λ_hi] on
+  // 1, and ||E|| < 1 wherever Y is proven positive definite (docs/theory.md, "M⁻¹ over a box").
+  const std::vector<Taylor> Y = left_multiply(K, transpose(left_multiply(K, M, n), n), n);
+  const auto shifted = [&](double c) {
+    std::vector<Taylor> E(Y.size());
+    for (std::size_t i = 0; i < Y.size(); ++i) E[i] = c == 1.0 ? Y[i] : c * Y[i];
+    for (int i = 0; i < n; ++i) E[i * n + i] = E[i * n + i] - 1.0;
+    return E;
+  };
+  double c = 1.0;
+  std::vector<Taylor> E = shifted(c);
+  double eta = norm_upper(taylor_matrix(E.data(), n, n, symbols), 0.0);
+  if (!(eta < 1.0)) {
+    const double low = smallest_eigenvalue_lower(taylor_matrix(Y.data(), n, n, symbols));
+    if (!(low > 0.0) || !std::isfinite(eta)) return result;
+    c = 2.0 / (low + 1.0 + eta);  // λmax(Y) <= 1 + ||Y - I||
+    E = shifted(c);
+    eta = norm_upper(taylor_matrix(E.data(), n, n, symbols), 0.0);
+    if (!(eta < 1.0)) return result;
+  }
+  // c Kᵀ (I - E + E²) K.
   const std::vector<Taylor> E2 = product(E, E, n, n, n);
   std::vector<Taylor> Z(E.size());
   for (std::size_t i = 0; i < E.size(); ++i) Z[i] = E2[i] - E[i];
   for (int i = 0; i < n; ++i) Z[i * n + i] = Z[i * n + i] + 1.0;
   const Eigen::MatrixXd Kt = K.transpose();
   result.entries = left_multiply(Kt, transpose(left_multiply(Kt, transpose(Z, n), n), n), n);
-  // Kᵀ E³ (I + E)⁻¹ K = (E K)ᵀ · E (I + E)⁻¹ · (E K), and ||E (I + E)⁻¹|| <= η / (1 - η) for the symmetric E: the tail
-  // is ||E K||² η / (1 - η), which sees that E K is small where M varies only in its heavy directions (||E K|| <= η ||K||).
-  // ||E K|| = ||(E K)ᵀ|| = ||Kᵀ E|| for the symmetric E that every member of the forms is.
+  if (c != 1.0)
+    for (Taylor& x : result.entries) x = c * x;
+  // c Kᵀ E³ (I + E)⁻¹ K = c (E K)ᵀ · E (I + E)⁻¹ · (E K), and ||E (I + E)⁻¹|| <= η / (1 - η) for the symmetric E: the
+  // tail is c ||E K||² η / (1 - η), which sees that E K is small where M varies only in its heavy directions
+  // (||E K|| <= η ||K||). ||E K|| = ||(E K)ᵀ|| = ||Kᵀ E|| for the symmetric E that every member of the forms is.
   const std::vector<Taylor> KtE = left_multiply(K.transpose(), E, n);
   const double EK_norm = norm_upper(taylor_matrix(KtE.data(), n, n, symbols), 0.0);
   const UpwardRounding upward;
   const Interval e(eta);
-  result.tail = (Interval(EK_norm) * Interval(EK_norm) * e / (Interval(1.0) - e)).upper();
+  result.tail = (Interval(c) * Interval(EK_norm) * Interval(EK_norm) * e / (Interval(1.0) - e)).upper();
   result.proven = true;
   return result;
 }

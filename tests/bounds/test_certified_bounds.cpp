@@ -148,7 +148,7 @@ obsgain::Model long_chain(int n) {
 // A chain whose M and C depend on more joints than the interval search takes cannot be certified: numeric bounds,
 // with a warning saying so.
 TEST(CertifiedDesign, FallsBackToNumericWithAWarningAndIsNeverCalledCertified) {
-  const obsgain::Model model = long_chain(obsgain::kTaylorSymbols + 2);
+  const obsgain::Model model = long_chain(obsgain::kMaxDirections + 2);
   obsgain::DesignOptions options;
   options.gamma = 1.0;
   options.bounds.global_evaluations_per_dimension = 10;  // the search itself is not what is tested
@@ -248,7 +248,7 @@ TEST(ArmBrackets, LongSearchesReportProgress) {
   const obsgain::Model arm = obsgain::load_robot({examples + "/arm3.urdf"});
   const obsgain::BoundReport numeric = light_search(arm);
   obsgain::CertifiedOptions options;
-  options.budget_seconds = 4.0;  // L_joint gets 3.6
+  options.budget_seconds = 4.0;  // L_joint gets 3.8
   options.relative_gap = 1e-12;  // L_joint reaches it in about a second; the budget ends the others
   std::vector<obsgain::SearchProgress> reports;
   options.progress = [&](const obsgain::SearchProgress& p) { reports.push_back(p); };
@@ -258,7 +258,7 @@ TEST(ArmBrackets, LongSearchesReportProgress) {
     const obsgain::SearchProgress& p = reports[i];
     EXPECT_GE(p.seconds, 1.0);
     // L_joint runs first (it may end at its gap before its first report on an idle machine).
-    if (std::string(p.bound) == "L_joint") EXPECT_DOUBLE_EQ(p.work_budget, 0.9 * 4.0);
+    if (std::string(p.bound) == "L_joint") EXPECT_DOUBLE_EQ(p.work_budget, 0.95 * 4.0);
     EXPECT_LE(p.work_budget, 4.0);
     EXPECT_LE(p.work, p.work_budget + 0.05);  // at most a round's work past the budget
     EXPECT_LE(p.lower, p.upper);

@@ -4,6 +4,7 @@
 // second-order term.
 #include "obsgain/bounds/bounds.hpp"
 #include "obsgain/bounds/box_bounds.hpp"
+#include "obsgain/bounds/box_forms.hpp"
 #include "obsgain/bounds/joint_search.hpp"
 #include "obsgain/bounds/taylor_matrix.hpp"
 #include "obsgain/model/dynamics.hpp"
@@ -17,6 +18,7 @@
 #include <cmath>
 #include <numeric>
 #include <random>
+#include <string>
 
 namespace {
 
@@ -26,9 +28,9 @@ using obsgain_test::examples;
 // evaluation the value comes from).
 double polynomial_part(const obsgain::Taylor& x, const std::vector<double>& epsilon) {
   double v = x.c;
-  for (std::size_t k = 0; k < epsilon.size(); ++k) v += x.a[k] * epsilon[k];
+  for (std::size_t k = 0; k < epsilon.size(); ++k) v += x.slope(static_cast<int>(k)) * epsilon[k];
   for (std::size_t k = 0; k < epsilon.size(); ++k)
-    for (std::size_t l = k; l < epsilon.size(); ++l) v += x.b[obsgain::kPairs.index[k][l]] * epsilon[k] * epsilon[l];
+    for (std::size_t l = k; l < epsilon.size(); ++l) v += x.curvature(obsgain::kPairs.index[k][l]) * epsilon[k] * epsilon[l];
   return v;
 }
 bool encloses(const obsgain::Taylor& x, const std::vector<double>& epsilon, double value, double slack) {
@@ -120,26 +122,115 @@ TEST(TaylorMatrices, NormBoundKeepsTheSignOfTheCurvature) {
   }
 }
 
-// M and the Christoffel tensors of a model over a box of its searched joints (symbol k: side k).
-struct BoxForms {
-  std::vector<obsgain::Taylor> M, N;
-};
+// A random Taylor matrix of `symbols` symbols (entries of the given sizes), and its polynomial part at ε.
+obsgain::TaylorMatrix random_taylor_matrix(int rows, int cols, int symbols, double size, std::mt19937_64& rng) {
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  const auto random = [&](double scale) { return Eigen::MatrixXd(Eigen::MatrixXd::NullaryExpr(rows, cols, [&] { return scale * unit(rng); })); };
+  obsgain::TaylorMatrix X;
+  X.centre = random(size);
+  for (int k = 0; k < symbols; ++k) X.slopes.push_back(random(0.1 * size));
+  for (int p = 0; p < obsgain::pair_count(symbols); ++p) X.curvatures.push_back(random(0.02 * size));
+  X.remainder = 0.01 * size;
+  return X;
+}
+Eigen::MatrixXd member(const obsgain::TaylorMatrix& X, const std::vector<double>& e) {
+  Eigen::MatrixXd Y = X.centre;
+  const auto pairs = obsgain::symbol_pairs(X.symbols());
+  for (int k = 0; k < X.symbols(); ++k) Y += e[k] * X.slopes[k];
+  for (std::size_t p = 0; p < pairs.size(); ++p) Y += e[pairs[p].first] * e[pairs[p].second] * X.curvatures[p];
+  return Y;
+}
 
-BoxForms box_forms(const obsgain::Model& model, const obsgain::JointSearch& s, const Eigen::VectorXd& centre,
-                   const std::vector<double>& radius) {
+// Every saturation pattern at once: ||A D + R|| <= ||[A + R, R]|| for every diagonal D in [0, 1]ⁿ (XXᵀ is convex in
+// each column), on random matrices and on Taylor matrices over a box (norm_upper of the envelope bounds every member
+// and pattern). On the arms with friction the envelope loses little: at random configurations its maximum over the
+// velocity vertices is within 1 % of the maximum over vertices and patterns (measured 0.04 % to 0.6 % on arm6).
+TEST(TaylorMatrices, PatternEnvelopeBoundsEverySaturationPattern) {
+  std::mt19937_64 rng(12);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0), fraction(0.0, 1.0);
+  for (int trial = 0; trial < 60; ++trial) {
+    const int n = 2 + trial % 6;
+    const obsgain::TaylorMatrix A = random_taylor_matrix(n, n, 3, 2.0, rng), R = random_taylor_matrix(n, n, 3, 0.5, rng);
+    const double bound = obsgain::norm_upper(obsgain::pattern_envelope(A, R, A.frobenius_upper() + R.frobenius_upper()), 0.0);
+    for (int point = 0; point < 30; ++point) {
+      const std::vector<double> e{unit(rng), unit(rng), unit(rng)};
+      Eigen::VectorXd d(n);
+      for (int j = 0; j < n; ++j) d(j) = point % 3 == 0 ? fraction(rng) : (point >> (j % 4)) & 1;
+      EXPECT_LE(obsgain::spectral_norm(member(A, e) * d.asDiagonal() + member(R, e)), bound) << n;
+    }
+  }
+  const obsgain::Model model = obsgain::load_robot({examples + "/arm6.urdf"});
   const int n = model.dof();
-  std::vector<obsgain::Taylor> q(n);
-  for (int i = 0; i < n; ++i) q[i] = obsgain::Taylor(centre(i));
+  for (int trial = 0; trial < 5; ++trial) {
+    Eigen::VectorXd q(n);
+    for (int i = 0; i < n; ++i) q(i) = 3.0 * unit(rng);
+    Eigen::MatrixXd M(n, n);
+    obsgain::mass_matrix(model, q, M);
+    std::vector<Eigen::MatrixXd> N;
+    obsgain::coriolis_tensors(model, q, N);
+    const Eigen::MatrixXd R = M.llt().solve(model.friction);
+    double envelope = 0.0, patterns = 0.0;
+    const Eigen::MatrixXd vertices = obsgain::box_vertices(model.velocity_bounds);
+    for (Eigen::Index c = 0; c < vertices.cols(); ++c) {
+      const Eigen::MatrixXd A = M.llt().solve(obsgain::coriolis_jacobian(N, vertices.col(c)));
+      Eigen::MatrixXd stacked(n, 2 * n);
+      stacked << A + R, R;
+      envelope = std::max(envelope, obsgain::spectral_norm(stacked));
+      for (unsigned bits = 0; bits < (1u << n); ++bits) {
+        Eigen::VectorXd d(n);
+        for (int j = 0; j < n; ++j) d(j) = (bits >> j) & 1u;
+        patterns = std::max(patterns, obsgain::spectral_norm(A * d.asDiagonal() + R));
+      }
+    }
+    EXPECT_GE(envelope, patterns * (1.0 - 1e-12));
+    EXPECT_LE(envelope, 1.01 * patterns);
+  }
+}
+
+// Weights carried as symbols: Σ_j w_j X_j(ε) for every w_j in [-V_j, V_j] of the free ones (and the fixed ones at
+// their values) lies within the combination's polynomial part at (ε, w/V) plus its remainder.
+TEST(TaylorMatrices, SymbolicWeightsCoverEveryWeightInTheirBox) {
+  std::mt19937_64 rng(13);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  for (int trial = 0; trial < 40; ++trial) {
+    const int n = 2 + trial % 5, terms = 3 + trial % 4, symbols = 2 + trial % 3;
+    std::vector<obsgain::TaylorMatrix> X;
+    for (int j = 0; j < terms; ++j) X.push_back(random_taylor_matrix(n, n, symbols, 1.0, rng));
+    Eigen::VectorXd V(terms);
+    std::vector<bool> free(terms);
+    for (int j = 0; j < terms; ++j) {
+      V(j) = 1.0 + unit(rng);
+      free[j] = (trial + j) % 2 == 0;
+    }
+    const obsgain::TaylorMatrix Y = obsgain::linear_combination(X, V, free, obsgain::frobenius_uppers(X));
+    for (int point = 0; point < 30; ++point) {
+      std::vector<double> e(Y.symbols());
+      for (int k = 0; k < symbols; ++k) e[k] = unit(rng);
+      Eigen::MatrixXd exact = Eigen::MatrixXd::Zero(n, n);
+      for (int j = 0, free_index = symbols; j < terms; ++j) {
+        const double omega = free[j] ? unit(rng) : 1.0;
+        if (free[j]) e[free_index++] = omega;
+        const std::vector<double> own(e.begin(), e.begin() + symbols);
+        exact += omega * V(j) * (member(X[j], own) + 0.01 * unit(rng) * Eigen::MatrixXd::Identity(n, n));
+      }
+      EXPECT_LE(obsgain::spectral_norm(exact - member(Y, e)), Y.remainder) << trial;
+    }
+  }
+}
+
+// The library's forms of M and the Christoffel tensors over the box centre ± radius of the searched joints, the other
+// joints at the centre's values: angle symbols up to kArcRadius, arcs above (bounds/box_forms.hpp).
+obsgain::BoxForms box_forms(const obsgain::Model& model, obsgain::JointSearch s, const Eigen::VectorXd& centre,
+                            const std::vector<double>& radius) {
+  s.fixed_q = centre;
+  std::vector<obsgain::Interval> box;
   for (std::size_t k = 0; k < s.joints.size(); ++k)
-    q[s.joints[k]] = obsgain::Taylor::symbol(centre(s.joints[k]), radius[k], static_cast<int>(k));
-  BoxForms f{std::vector<obsgain::Taylor>(n * n), std::vector<obsgain::Taylor>(n * n * n)};
-  obsgain::mass_matrix_of(model, q.data(), f.M.data());
-  obsgain::christoffel_tensors_of(model, s.joints, q.data(), f.N.data());
-  return f;
+    box.emplace_back(centre(s.joints[k]) - radius[k], centre(s.joints[k]) + radius[k]);
+  return obsgain::box_forms(model, s, box, true);
 }
 
 // A random box of the searched joints (centre in (-3, 3), half-widths up to `scale`) and random points in it:
-// their symbols ε and configurations q.
+// their configurations q and symbols ε.
 struct RandomBox {
   Eigen::VectorXd centre;
   std::vector<double> radius;
@@ -155,14 +246,12 @@ struct RandomPoint {
   std::vector<double> epsilon;
   Eigen::VectorXd q;
 };
-RandomPoint random_point(const obsgain::JointSearch& s, const RandomBox& box, std::mt19937_64& rng) {
+RandomPoint random_point(const obsgain::JointSearch& s, const RandomBox& box, const obsgain::BoxForms& f,
+                         std::mt19937_64& rng) {
   std::uniform_real_distribution<double> unit(-1.0, 1.0);
-  RandomPoint point{std::vector<double>(s.joints.size()), box.centre};
-  for (std::size_t k = 0; k < s.joints.size(); ++k) {
-    point.epsilon[k] = unit(rng);
-    point.q(s.joints[k]) += point.epsilon[k] * box.radius[k];
-  }
-  return point;
+  Eigen::VectorXd q = box.centre;
+  for (std::size_t k = 0; k < s.joints.size(); ++k) q(s.joints[k]) += unit(rng) * box.radius[k];
+  return {f.symbols_at(q), q};
 }
 
 class TaylorDynamics : public ::testing::TestWithParam<const char*> {};
@@ -177,9 +266,9 @@ TEST_P(TaylorDynamics, EncloseMAndTheCoriolisTensorsAtRandomPointsOfRandomBoxes)
   std::mt19937_64 rng(3);
   for (int trial = 0; trial < 10; ++trial) {
     const RandomBox box = random_box(s, n, trial < 4 ? 0.05 : trial < 7 ? 1.0 : 3.2, rng);
-    const BoxForms f = box_forms(model, s, box.centre, box.radius);
+    const obsgain::BoxForms f = box_forms(model, s, box.centre, box.radius);
     for (int point = 0; point < 10; ++point) {
-      const auto [e, q] = random_point(s, box, rng);
+      const auto [e, q] = random_point(s, box, f, rng);
       Eigen::MatrixXd M(n, n);
       obsgain::mass_matrix(model, q, M);
       std::vector<Eigen::MatrixXd> N;
@@ -201,21 +290,20 @@ TEST_P(TaylorDynamics, InverseEnclosesTheInverseAtRandomPoints) {
   const obsgain::Model model = obsgain::load_robot({examples + "/" + GetParam()});
   const int n = model.dof();
   const obsgain::JointSearch s = obsgain::joint_search(model, obsgain::configuration_joints(model));
-  const auto m = s.joints.size();
   std::mt19937_64 rng(8);
   int proven = 0;
   for (int trial = 0; trial < 20; ++trial) {
     const RandomBox box = random_box(s, n, 0.15, rng);
-    const BoxForms f = box_forms(model, s, box.centre, box.radius);
+    const obsgain::BoxForms f = box_forms(model, s, box.centre, box.radius);
     const obsgain::UpwardRounding upward;
-    const obsgain::TaylorInverse inverse = obsgain::inverse(f.M, n, static_cast<int>(m));
+    const obsgain::TaylorInverse inverse = obsgain::inverse(f.M, n, f.symbols);
     if (!inverse.proven) continue;
     ++proven;
     double remainders = 0.0;
     for (const obsgain::Taylor& x : inverse.entries) remainders += x.r * x.r;
     const double allowed = std::sqrt(remainders) + inverse.tail;
     for (int point = 0; point < 20; ++point) {
-      const auto [e, q] = random_point(s, box, rng);
+      const auto [e, q] = random_point(s, box, f, rng);
       Eigen::MatrixXd M(n, n), P(n, n);
       obsgain::mass_matrix(model, q, M);
       for (int i = 0; i < n * n; ++i) P(i / n, i % n) = polynomial_part(inverse.entries[i], e);
@@ -227,62 +315,108 @@ TEST_P(TaylorDynamics, InverseEnclosesTheInverseAtRandomPoints) {
 }
 
 // The forms' remainder is third order: halving the box divides it by eight. The exponent is fitted over four widths
-// at a fixed centre (about 3 for every model; a first-order form, affine arithmetic, gives 2).
+// at a fixed centre, for angle symbols (half-widths below kArcRadius) and for arcs (above), about 3 for every model
+// (a first-order form, affine arithmetic, gives 2). Where M is affine in the arc's cosine and sine (the Pendubot, whose
+// one searched joint is its last), the arcs hold M and N exactly: only rounding remains.
 TEST_P(TaylorDynamics, RemaindersShrinkAsTheCubeOfTheWidth) {
   const obsgain::Model model = obsgain::load_robot({examples + "/" + GetParam()});
   const obsgain::JointSearch s = obsgain::joint_search(model, obsgain::configuration_joints(model));
   const Eigen::VectorXd centre = Eigen::VectorXd::LinSpaced(model.dof(), 0.3, 1.7);
-  std::vector<double> log_w, log_M, log_N;
-  for (double w : {0.2, 0.1, 0.05, 0.025}) {
-    const BoxForms f = box_forms(model, s, centre, std::vector<double>(s.joints.size(), w / 2));
-    const auto total = [](const std::vector<obsgain::Taylor>& X) {
-      return std::accumulate(X.begin(), X.end(), 0.0, [](double t, const obsgain::Taylor& x) { return t + x.r; });
-    };
-    log_w.push_back(std::log(w));
-    log_M.push_back(std::log(total(f.M)));
-    log_N.push_back(std::log(total(f.N)));
-  }
-  const auto slope = [&](const std::vector<double>& y) {
-    const double mx = std::accumulate(log_w.begin(), log_w.end(), 0.0) / 4, my = std::accumulate(y.begin(), y.end(), 0.0) / 4;
-    double sxy = 0.0, sxx = 0.0;
-    for (int i = 0; i < 4; ++i) {
-      sxy += (log_w[i] - mx) * (y[i] - my);
-      sxx += (log_w[i] - mx) * (log_w[i] - mx);
+  const auto fitted_exponents = [&](const std::vector<double>& radii) {
+    std::vector<double> log_w, log_M, log_N;
+    for (const double r : radii) {
+      const obsgain::BoxForms f = box_forms(model, s, centre, std::vector<double>(s.joints.size(), r));
+      const auto total = [](const std::vector<obsgain::Taylor>& X) {
+        return std::accumulate(X.begin(), X.end(), 0.0, [](double t, const obsgain::Taylor& x) { return t + x.r; });
+      };
+      log_w.push_back(std::log(r));
+      log_M.push_back(std::log(total(f.M)));
+      log_N.push_back(std::log(total(f.N)));
     }
-    return sxy / sxx;
+    const auto slope = [&](const std::vector<double>& y) {
+      const double mx = std::accumulate(log_w.begin(), log_w.end(), 0.0) / 4, my = std::accumulate(y.begin(), y.end(), 0.0) / 4;
+      double sxy = 0.0, sxx = 0.0;
+      for (int i = 0; i < 4; ++i) {
+        sxy += (log_w[i] - mx) * (y[i] - my);
+        sxx += (log_w[i] - mx) * (log_w[i] - mx);
+      }
+      return sxy / sxx;
+    };
+    return std::pair{slope(log_M), slope(log_N)};
   };
-  for (const auto* remainders : {&log_M, &log_N}) {
-    EXPECT_GT(slope(*remainders), 2.8) << GetParam();
-    EXPECT_LT(slope(*remainders), 3.4) << GetParam();
+  const double a = obsgain::kArcRadius;
+  const auto [M, N] = fitted_exponents({0.9 * a, 0.45 * a, 0.225 * a, 0.1125 * a});
+  EXPECT_GT(M, 2.8) << GetParam();
+  EXPECT_LT(M, 3.4) << GetParam();
+  EXPECT_GT(N, 2.8) << GetParam();
+  EXPECT_LT(N, 3.4) << GetParam();
+  const std::vector<double> arcs{16 * a, 8 * a, 4 * a, 2 * a};
+  if (std::string(GetParam()) == "pendubot.urdf") {
+    const obsgain::BoxForms f = box_forms(model, s, centre, std::vector<double>(s.joints.size(), arcs[0]));
+    for (const obsgain::Taylor& x : f.M) EXPECT_LT(x.r, 1e-15);
+    for (const obsgain::Taylor& x : f.N) EXPECT_LT(x.r, 1e-15);
+    return;
   }
+  const auto [arc_M, arc_N] = fitted_exponents(arcs);
+  EXPECT_GT(arc_M, 2.8) << GetParam();
+  EXPECT_LT(arc_M, 3.4) << GetParam();
+  EXPECT_GT(arc_N, 2.8) << GetParam();
+  EXPECT_LT(arc_N, 3.4) << GetParam();
 }
 
-// The bound of L_joint over a small box is never below the values attained in it (its corners and random points),
-// and within 3 % of them (it was 5 % with first-order forms).
-TEST_P(TaylorDynamics, JointLipschitzBoxBoundsHoldAndAreTightOnSmallBoxes) {
-  const obsgain::Model model = obsgain::load_robot({examples + "/" + GetParam()});
+// A box of the given width in every searched joint, at a random place.
+std::vector<obsgain::Interval> random_box(const obsgain::JointSearch& s, double width, std::mt19937_64& rng) {
+  std::uniform_real_distribution<double> angle(-3.0, 3.0);
+  std::vector<obsgain::Interval> box;
+  for (std::size_t k = 0; k < s.joints.size(); ++k) {
+    const double lo = angle(rng);
+    box.emplace_back(lo, lo + width);
+  }
+  return box;
+}
+
+// The largest value of L_joint's objective (scaled by T, when given) attained at `points` points of the box: corners
+// first, then random points.
+double attained_in_box(const obsgain::Model& model, const obsgain::JointSearch& s,
+                       const std::vector<obsgain::Interval>& box, int points, std::mt19937_64& rng,
+                       const Eigen::VectorXd& scaling = {}) {
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  double attained = 0.0;
+  for (int point = 0; point < points; ++point) {
+    Eigen::VectorXd x(static_cast<Eigen::Index>(box.size()));
+    for (std::size_t k = 0; k < box.size(); ++k)
+      x(k) = box[k].lower() + (point < 8 ? ((point >> (k % 3)) & 1) : unit(rng)) * (box[k].upper() - box[k].lower());
+    attained = std::max(attained,
+                        obsgain::max_joint_lipschitz_norm(model, s.configuration(x), model.velocity_bounds, scaling));
+  }
+  return attained;
+}
+
+// Over `trials` random boxes of the given width, the bound of L_joint is never below the values attained at `points`
+// points of the box, and at most `ratio` times them.
+void expect_box_bounds_hold(const std::string& file, double width, int trials, int points, double ratio) {
+  const obsgain::Model model = obsgain::load_robot({examples + "/" + file});
   const obsgain::JointSearch s = obsgain::joint_search(model, obsgain::configuration_joints(model));
   const obsgain::BoxBounds boxes(model, s, model.velocity_bounds);
   std::mt19937_64 rng(5);
-  std::uniform_real_distribution<double> unit(0.0, 1.0), angle(-3.0, 3.0);
-  for (int trial = 0; trial < 6; ++trial) {
-    std::vector<obsgain::Interval> box;
-    for (std::size_t k = 0; k < s.joints.size(); ++k) {
-      const double lo = angle(rng);
-      box.emplace_back(lo, lo + 0.02);
-    }
-    const obsgain::UpwardRounding upward;
-    const double bound = boxes.joint_lipschitz(box, 0.0).upper;
-    double attained = 0.0;
-    for (int point = 0; point < 40; ++point) {
-      Eigen::VectorXd x(static_cast<Eigen::Index>(box.size()));
-      for (std::size_t k = 0; k < box.size(); ++k)
-        x(k) = box[k].lower() + (point < 8 ? ((point >> (k % 3)) & 1) : unit(rng)) * 0.02;
-      attained = std::max(attained, obsgain::max_joint_lipschitz_norm(model, s.configuration(x), model.velocity_bounds));
-    }
-    EXPECT_GE(bound, attained) << GetParam();
-    EXPECT_LE(bound, 1.03 * attained) << GetParam();
+  for (int trial = 0; trial < trials; ++trial) {
+    const std::vector<obsgain::Interval> box = random_box(s, width, rng);
+    const double bound = boxes.joint_lipschitz(box, 0.0).upper, attained = attained_in_box(model, s, box, points, rng);
+    EXPECT_GE(bound, attained) << file;
+    EXPECT_LE(bound, ratio * attained) << file;
   }
+}
+
+// Boxes of arcs (width 0.2): within 1.2 times (measured: 1.03 to 1.12 on arm6 and arm7; arm3 reaches 2.5 where M⁻¹
+// turns fast, and is held to holding only).
+TEST_P(TaylorDynamics, JointLipschitzBoxBoundsHoldOnArcBoxes) {
+  const bool fast_inverse = std::string(GetParam()) == "arm3.urdf";
+  expect_box_bounds_hold(GetParam(), 0.2, 4, 100, fast_inverse ? obsgain::kInfinity : 1.2);
+}
+
+// Small boxes (width 0.02): within 3 % (it was 5 % with first-order forms).
+TEST_P(TaylorDynamics, JointLipschitzBoxBoundsHoldAndAreTightOnSmallBoxes) {
+  expect_box_bounds_hold(GetParam(), 0.02, 6, 40, 1.03);
 }
 
 // The same for L_T = sup ||T Φ T⁻¹|| with a random diagonal T: the scaled forms' bound holds and is as tight; with
@@ -291,29 +425,18 @@ TEST_P(TaylorDynamics, ScaledJointLipschitzBoxBoundsHoldAndAreTightOnSmallBoxes)
   const obsgain::Model model = obsgain::load_robot({examples + "/" + GetParam()});
   const obsgain::JointSearch s = obsgain::joint_search(model, obsgain::configuration_joints(model));
   std::mt19937_64 rng(8);
-  std::uniform_real_distribution<double> unit(0.0, 1.0), angle(-3.0, 3.0), logarithm(-1.2, 1.2);
+  std::uniform_real_distribution<double> logarithm(-1.2, 1.2);
   const Eigen::VectorXd ones = Eigen::VectorXd::Ones(model.dof());
   const obsgain::BoxBounds plain(model, s, model.velocity_bounds), unit_scaled(model, s, model.velocity_bounds, ones);
   for (int trial = 0; trial < 4; ++trial) {
     Eigen::VectorXd t = Eigen::VectorXd::Ones(model.dof());
     for (int i = 1; i < model.dof(); ++i) t(i) = std::exp(logarithm(rng));
     const obsgain::BoxBounds scaled(model, s, model.velocity_bounds, t);
-    std::vector<obsgain::Interval> box;
-    for (std::size_t k = 0; k < s.joints.size(); ++k) {
-      const double lo = angle(rng);
-      box.emplace_back(lo, lo + 0.02);
-    }
-    const obsgain::UpwardRounding upward;
+    const std::vector<obsgain::Interval> box = random_box(s, 0.02, rng);
     const double bound = scaled.joint_lipschitz(box, 0.0).upper, unscaled = plain.joint_lipschitz(box, 0.0).upper;
     EXPECT_GE(unit_scaled.joint_lipschitz(box, 0.0).upper, unscaled) << GetParam();
     EXPECT_LE(unit_scaled.joint_lipschitz(box, 0.0).upper, unscaled * (1.0 + 1e-12)) << GetParam();
-    double attained = 0.0;
-    for (int point = 0; point < 40; ++point) {
-      Eigen::VectorXd x(static_cast<Eigen::Index>(box.size()));
-      for (std::size_t k = 0; k < box.size(); ++k)
-        x(k) = box[k].lower() + (point < 8 ? ((point >> (k % 3)) & 1) : unit(rng)) * 0.02;
-      attained = std::max(attained, obsgain::max_joint_lipschitz_norm(model, s.configuration(x), model.velocity_bounds, t));
-    }
+    const double attained = attained_in_box(model, s, box, 40, rng, t);
     EXPECT_GE(bound, attained) << GetParam();
     EXPECT_LE(bound, 1.03 * attained) << GetParam();
   }

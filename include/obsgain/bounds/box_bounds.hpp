@@ -18,14 +18,17 @@ namespace obsgain {
 
 // What the work on one box costs, counted rather than timed so that a budget of work stops every run at the same
 // box: seconds of wall time on the reference machine (two cores like the suite's), fitted to timings of each step
-// on n joints of which m are searched (docs/theory.md, "The budget").
+// on n joints whose forms carry `symbols` symbols (docs/theory.md, "The budget").
 struct BoxCosts {
   double inertia;     // M over the box as Taylor forms, and its derivatives on intervals
-  double tensors;     // M with its derivatives, the Christoffel tensors, M⁻¹ and M⁻¹J_j over the box
-  double refinement;  // one fine norm or eigenvalue bound
-  double choice;      // one vertex or pattern's cheap bound, or its centre's Cholesky test
+  double forms;       // M with its derivatives and the Christoffel tensors, as forms
+  double products;    // M⁻¹ and the products M⁻¹J_j
+  double vertex;      // one velocity vertex's A(w) and its envelope
+  double refinement;  // one fine norm or eigenvalue bound of an n x n form
+  double choice;      // one pattern's cheap bound, or a centre's Cholesky test
+  double point;       // the value attained at the box's midpoint (every vertex and pattern, in double)
 };
-BoxCosts box_costs(int n, int m);
+BoxCosts box_costs(int n, int symbols, bool frictionless);
 
 // A diagonal similarity T = diag(t) for L_T = sup ||T Φ T⁻¹|| (docs/theory.md, "Diagonal scaling"). The forms are
 // scaled to T X S, S = diag(s), s_k = 1/t_k rounded (each product's rounding bounded by the forms), and
@@ -60,7 +63,6 @@ class BoxBounds {
   // F = 0 (the full pattern D = I is then the maximum, ||A D|| <= ||A||, and the only one needed).
   unsigned count_, half_;
   bool frictionless_;
-  BoxCosts costs_;
   std::optional<DiagonalScaling> scaling_;
 };
 

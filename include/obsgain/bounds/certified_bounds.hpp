@@ -27,7 +27,7 @@ struct CertifiedOptions {
   // A safety net for a machine far slower than the reference: every search also stops after this many wall
   // seconds from the start (the bracket may then differ between runs, and says so). Default 3 × budget + 30 s.
   std::optional<double> wall_limit_seconds;
-  LipschitzFocus focus = LipschitzFocus::joint;  // the focus gets 90 % of the budget; what it leaves passes on
+  LipschitzFocus focus = LipschitzFocus::joint;  // the focus gets 95 % of the budget; what it leaves passes on
   int max_boxes = 2000000;      // per bound; reaching it leaves a wider (still valid) bracket
   int threads = 0;              // 0: all cores
   ProgressCallback progress;    // optional

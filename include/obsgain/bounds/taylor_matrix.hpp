@@ -14,8 +14,11 @@
 
 namespace obsgain {
 
-// The products ε_k ε_l (k <= l < m) of m symbols, in the order TaylorMatrix::curvatures holds them.
+// The products ε_k ε_l (k <= l < m) of m symbols, in the order TaylorMatrix::curvatures holds them: by the larger
+// symbol, then the smaller (kPairs' order, for any number of symbols: a Taylor matrix may carry more than a form).
 std::vector<std::pair<int, int>> symbol_pairs(int symbols);
+// The position of ε_k ε_l in that order.
+int pair_index(int k, int l);
 
 struct TaylorMatrix {
   Eigen::MatrixXd centre;
@@ -40,11 +43,23 @@ TaylorMatrix taylor_matrix(const Taylor* entries, int rows, int cols, int symbol
 // frobenius_upper(), computed once for the many combinations of the same terms.
 TaylorMatrix linear_combination(const std::vector<TaylorMatrix>& terms, const Eigen::VectorXd& weights,
                                 const std::vector<double>& frobenius);
+// The same with some weights free: Σ_j w_j X_j over the fixed ones, plus Σ_j V_j ω_j X_j over the free ones
+// (`free[j]`, V_j = weights(j)), each ω_j ∈ [-1, 1] a symbol of its own after X's: its term's centre is a slope, its
+// slopes are curvatures with ω_j, and its curvatures (third order) join the remainder. Every weight in [-V_j, V_j] at
+// once, for the price of a few symbols.
+TaylorMatrix linear_combination(const std::vector<TaylorMatrix>& terms, const Eigen::VectorXd& weights,
+                                const std::vector<bool>& free, const std::vector<double>& frobenius);
+// X over `symbols` symbols, the ones beyond its own not entering it.
+TaylorMatrix with_symbols(const TaylorMatrix& X, int symbols);
 // Their frobenius_upper(), for linear_combination.
 std::vector<double> frobenius_uppers(const std::vector<TaylorMatrix>& terms);
 // X D + Y for a diagonal D with entries in [0, 1] (X's columns kept or scaled down), written into `out` (whose storage
 // is reused); `frobenius`: X.frobenius_upper() + Y.frobenius_upper(), which bounds the sums' rounding.
 void scaled_sum(const TaylorMatrix& X, const Eigen::VectorXd& d, const TaylorMatrix& Y, double frobenius, TaylorMatrix& out);
+// [X + Y, Y]ᵀ (2n x n for n x n terms), whose norm bounds ||X D + Y|| for every diagonal D with entries in [0, 1] at
+// once: (X D + Y)(X D + Y)ᵀ ≼ (X + Y)(X + Y)ᵀ + Y Yᵀ column by column (docs/theory.md, "Every saturation pattern at
+// once"). `frobenius`: X.frobenius_upper() + Y.frobenius_upper(), which bounds the sum's rounding.
+TaylorMatrix pattern_envelope(const TaylorMatrix& X, const TaylorMatrix& Y, double frobenius);
 
 // An upper bound of ||Σ_j w_j X_j D + R|| for every |w_j| <= V_j and diagonal D in [0, 1]ⁿ at once, from entry
 // moduli: Σ_j V_j |X_j| + |R| (each over the box) in Frobenius norm. No enumeration of vertices or patterns: the
@@ -58,9 +73,10 @@ double norm_upper(const TaylorMatrix& X, double floor);
 double smallest_eigenvalue_lower(const TaylorMatrix& X);
 
 // M(ε)⁻¹ over the box, for a symmetric M(ε) (row-major n x n forms): with K ≈ L⁻¹ from the Cholesky factor of M's
-// centre, Y = K M Kᵀ = I + E, ||E(ε)||₂ <= η < 1 proves M invertible on the box, and
-// M⁻¹ = Kᵀ (I - E + E²) K - Kᵀ E³ (I + E)⁻¹ K: the first term as forms (exact to second order), the second of norm
-// <= ||K||² η³ / (1 - η) (the tail). `proven` is false when the box is too wide for η < 1.
+// centre, Y = K M Kᵀ; Y = I + E with ||E(ε)||₂ <= η < 1 (after a scaling c of Y where it varies more) proves M
+// invertible on the box, and M⁻¹ = c Kᵀ (I - E + E²) K - c Kᵀ E³ (I + E)⁻¹ K: the first term as forms (exact to
+// second order), the second of norm <= c ||E K||² η / (1 - η) (the tail). `proven` is false when the box is too
+// wide for η < 1.
 struct TaylorInverse {
   std::vector<Taylor> entries;
   double tail = 0.0;

@@ -15,6 +15,7 @@
 #include <cmath>
 #include <type_traits>
 #include <utility>
+#include <vector>
 
 namespace obsgain {
 
@@ -138,6 +139,19 @@ void chain_kinematics(const SerialChain& chain, const S* q, ChainKinematics<S>& 
       const Eigen::Matrix3d along = a * a.transpose();
       k.rotation[i] = joint.rotation * (along + k.c[i] * (Eigen::Matrix3d::Identity() - along) + k.s[i] * skew);
     }
+  }
+}
+
+// Replaces joint i's cosine and sine, and on enclosures those of 2 q_i by cos 2q = c² - s², sin 2q = 2 c s: for
+// enclosures of (cos q_i, sin q_i) that are not functions of an enclosure of q_i (the certified bounds' arcs,
+// docs/theory.md, "Taylor forms").
+template <class S>
+void set_joint_trigonometry(ChainKinematics<S>& k, int i, const S& c, const S& s) {
+  k.c[i] = c;
+  k.s[i] = s;
+  if constexpr (!std::is_same_v<S, double>) {
+    k.c2[i] = c * c - s * s;
+    k.s2[i] = 2.0 * (c * s);
   }
 }
 
@@ -363,7 +377,12 @@ template <class S>
 void chain_mass_matrix(const SerialChain& chain, const ChainKinematics<S>& k, S* M) {
   using namespace chain_detail;
   const int n = chain.dof();
-  std::array<CompositeInertia<S>, kMaxChainJoints> composite;
+  // On the stack in double (the real-time observer allocates nothing); on the heap for enclosures, whose scalars
+  // are kilobytes each.
+  std::conditional_t<std::is_same_v<S, double>, std::array<CompositeInertia<S>, kMaxChainJoints>,
+                     std::vector<CompositeInertia<S>>>
+      composite{};
+  if constexpr (!std::is_same_v<S, double>) composite.resize(static_cast<std::size_t>(n));
   for (int i = 0; i < n; ++i) composite[i] = body_inertia<S>(chain.bodies[i]);
   for (int i = n - 1; i > 0; --i) add_to_parent(chain, k, i, composite[i], composite[i - 1]);
   for (int i = 0; i < n; ++i) {

@@ -16,8 +16,9 @@
 
 namespace obsgain {
 
-// Noise symbols per form: one per searched joint (a chain of up to eight joints searches seven).
-inline constexpr int kTaylorSymbols = 7;
+// Noise symbols per form: up to two per searched joint (an arc's, bounds/box_forms.hpp; a chain of up to eight
+// joints searches seven).
+inline constexpr int kTaylorSymbols = 14;
 // Products ε_k ε_l, k <= l.
 inline constexpr int kTaylorPairs = kTaylorSymbols * (kTaylorSymbols + 1) / 2;
 
@@ -40,22 +41,37 @@ struct TaylorPairs {
 inline constexpr TaylorPairs kPairs{};
 constexpr int pair_count(int symbols) { return symbols * (symbols + 1) / 2; }
 
+// Only the coefficients of the form's own symbols (those below `symbols`, and their pairs: a prefix of kPairs) are
+// stored, copied and read: a form of few symbols costs little whatever the capacity (slope() and curvature() read any
+// symbol, zero beyond).
 struct Taylor {
-  double c = 0.0;                          // centre
-  std::array<double, kTaylorSymbols> a{};  // first-order coefficients
-  std::array<double, kTaylorPairs> b{};    // second-order coefficients, in the order of kPairs
-  double r = 0.0;                          // remainder radius
-  int symbols = 0;                         // coefficients of symbols from here on are zero and never written
+  double c = 0.0;                        // centre
+  std::array<double, kTaylorSymbols> a;  // first-order coefficients (the first `symbols`)
+  std::array<double, kTaylorPairs> b;    // second-order coefficients in the order of kPairs (the first pair_count(symbols))
+  double r = 0.0;                        // remainder radius
+  int symbols = 0;
 
   Taylor() = default;
   Taylor(double x) : c(x) {}  // NOLINT: an exact constant mixes freely with forms
+  Taylor(const Taylor& x) : c(x.c), r(x.r), symbols(x.symbols) { copy_coefficients(x); }
+  Taylor& operator=(const Taylor& x) {
+    c = x.c;
+    r = x.r;
+    symbols = x.symbols;
+    copy_coefficients(x);
+    return *this;
+  }
   // centre + radius ε_k.
   static Taylor symbol(double centre, double radius, int k) {
     Taylor x(centre);
-    x.a[k] = radius;
     x.symbols = k + 1;
+    std::fill_n(x.a.begin(), k + 1, 0.0);
+    std::fill_n(x.b.begin(), pair_count(k + 1), 0.0);
+    x.a[k] = radius;
     return x;
   }
+  double slope(int k) const { return k < symbols ? a[k] : 0.0; }
+  double curvature(int p) const { return p < pair_count(symbols) ? b[p] : 0.0; }
   // Σ|a_k|, Σ|b_kl|: the first- and second-order deviations' sizes.
   double linear_size() const;
   double quadratic_size() const;
@@ -64,6 +80,12 @@ struct Taylor {
   // An enclosure of the range, rounded outward (squares ε_k² taken in [0, 1]).
   double lower() const;
   double upper() const;
+
+ private:
+  void copy_coefficients(const Taylor& x) {
+    std::copy_n(x.a.begin(), symbols, a.begin());
+    std::copy_n(x.b.begin(), pair_count(symbols), b.begin());
+  }
 };
 
 inline constexpr double kTaylorInflation = 1.0 + 0x1p-45;
@@ -102,13 +124,27 @@ inline double Taylor::lower() const {
   return c - low * kTaylorInflation - 2.0 * kTaylorRoundoff * (std::abs(c) + low);
 }
 
-// Coefficient-wise sum: each coefficient's rounding is at most 2⁻⁵² of its modulus.
+// Coefficient-wise sum: each coefficient's rounding is at most 2⁻⁵² of its modulus. The form of fewer symbols adds to
+// a prefix of the other's coefficients.
 inline Taylor operator+(const Taylor& x, const Taylor& y) {
+  const Taylor& more = x.symbols >= y.symbols ? x : y;
+  const Taylor& fewer = x.symbols >= y.symbols ? y : x;
   Taylor z(x.c + y.c);
-  z.symbols = std::max(x.symbols, y.symbols);
-  for (int k = 0; k < z.symbols; ++k) z.a[k] = x.a[k] + y.a[k];
-  for (int p = 0; p < pair_count(z.symbols); ++p) z.b[p] = x.b[p] + y.b[p];
-  z.r = taylor_detail::up(x.r + y.r + kTaylorRoundoff * (std::abs(z.c) + z.linear_size() + z.quadratic_size()));
+  z.symbols = more.symbols;
+  // The rounded sums' moduli, Σ|z_i| (only the sums are rounded: the copied coefficients are exact).
+  double moduli = std::abs(z.c);
+  for (int k = 0; k < fewer.symbols; ++k) {
+    z.a[k] = x.a[k] + y.a[k];
+    moduli += std::abs(z.a[k]);
+  }
+  std::copy(more.a.begin() + fewer.symbols, more.a.begin() + more.symbols, z.a.begin() + fewer.symbols);
+  const int pairs = pair_count(fewer.symbols), all = pair_count(more.symbols);
+  for (int p = 0; p < pairs; ++p) {
+    z.b[p] = x.b[p] + y.b[p];
+    moduli += std::abs(z.b[p]);
+  }
+  std::copy(more.b.begin() + pairs, more.b.begin() + all, z.b.begin() + pairs);
+  z.r = taylor_detail::up(x.r + y.r + kTaylorRoundoff * taylor_detail::up(moduli));
   return z;
 }
 
@@ -123,13 +159,21 @@ inline Taylor operator-(const Taylor& x) {
 
 inline Taylor operator-(const Taylor& x, const Taylor& y) { return x + (-y); }
 
+// Each product rounded within 2⁻⁵² of its modulus, which is at most (1 + 2⁻⁵²) |s| times the coefficient's.
 inline Taylor operator*(double s, const Taylor& x) {
   Taylor z(s * x.c);
   z.symbols = x.symbols;
-  for (int k = 0; k < z.symbols; ++k) z.a[k] = s * x.a[k];
-  for (int p = 0; p < pair_count(z.symbols); ++p) z.b[p] = s * x.b[p];
+  double moduli = std::abs(x.c);
+  for (int k = 0; k < z.symbols; ++k) {
+    z.a[k] = s * x.a[k];
+    moduli += std::abs(x.a[k]);
+  }
+  for (int p = 0; p < pair_count(z.symbols); ++p) {
+    z.b[p] = s * x.b[p];
+    moduli += std::abs(x.b[p]);
+  }
   const double as = std::abs(s);
-  z.r = taylor_detail::up(as * x.r + kTaylorRoundoff * (std::abs(z.c) + z.linear_size() + z.quadratic_size()));
+  z.r = taylor_detail::up(as * x.r + kTaylorRoundoff * taylor_detail::up(as * taylor_detail::up(moduli) * (1.0 + kTaylorRoundoff)));
   return z;
 }
 
@@ -142,12 +186,20 @@ inline Taylor operator*(const Taylor& x, const Taylor& y) {
   const double X1 = x.linear_size(), X2 = x.quadratic_size(), Y1 = y.linear_size(), Y2 = y.quadratic_size();
   Taylor z(x.c * y.c);
   z.symbols = std::max(x.symbols, y.symbols);
-  for (int k = 0; k < z.symbols; ++k) z.a[k] = x.c * y.a[k] + y.c * x.a[k];
-  for (int p = 0; p < pair_count(z.symbols); ++p) {
-    const int k = kPairs.first[p], l = kPairs.second[p];
-    const double square = k == l ? x.a[k] * y.a[k] : x.a[k] * y.a[l] + x.a[l] * y.a[k];
-    z.b[p] = x.c * y.b[p] + y.c * x.b[p] + square;
+  // Both operands' first-order coefficients over the product's symbols (zero beyond their own).
+  std::array<double, kTaylorSymbols> xa, ya;
+  for (int k = 0; k < z.symbols; ++k) {
+    xa[k] = x.slope(k);
+    ya[k] = y.slope(k);
   }
+  for (int k = 0; k < z.symbols; ++k) z.a[k] = x.c * ya[k] + y.c * xa[k];
+  // The pairs in kPairs' order: by the larger symbol l, then k <= l.
+  for (int l = 0, p = 0; l < z.symbols; ++l) {
+    for (int k = 0; k < l; ++k, ++p) z.b[p] = xa[k] * ya[l] + xa[l] * ya[k];
+    z.b[p++] = xa[l] * ya[l];
+  }
+  for (int p = 0; p < pair_count(y.symbols); ++p) z.b[p] += x.c * y.b[p];
+  for (int p = 0; p < pair_count(x.symbols); ++p) z.b[p] += y.c * x.b[p];
   const double xt = std::abs(x.c) + X1 + X2, yt = std::abs(y.c) + Y1 + Y2;
   z.r = taylor_detail::up(X1 * Y2 + X2 * Y1 + X2 * Y2 + xt * y.r + yt * x.r + x.r * y.r +
                           4.01 * kTaylorRoundoff * xt * yt);
