@@ -1,6 +1,6 @@
 // The arms people own, certified: for each arm, `design-gains --robot FILE --gamma 5` with numeric bounds (the
 // optimisers' lower estimates) and with certified bounds at the default budget (120 reference seconds), printed as
-// the Markdown table of docs/theory.md ("Certified bounds on the arms"). About 25 minutes on 2 cores.
+// the Markdown table of docs/theory.md ("Certified bounds on the arms"). About 20 minutes on 2 cores.
 // Run: build/bench/bench_certified_arms [BUDGET_SECONDS]
 #include "obsgain/design/design.hpp"
 #include "obsgain/parsers/robots.hpp"
