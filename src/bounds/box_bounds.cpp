@@ -250,7 +250,7 @@ LipschitzTerms lipschitz_terms(const Model& model, const BoxForms& d, const std:
   return t;
 }
 
-// The velocity box's vertices to visit (columns first..count-1), and whether F = 0 (then only the full pattern).
+// The velocity box, whether F = 0 (then only the full pattern) and what each step costs.
 struct VelocityChoices {
   const Eigen::VectorXd& velocity_bounds;
   bool frictionless;
@@ -347,7 +347,7 @@ std::vector<Eigen::VectorXd> enumerated_vertices(const Eigen::VectorXd& V, const
 // of the envelope's cheap bound: the envelope's centre tested (Cholesky), then its fine bound; the patterns one by one
 // (patterns_upper) only where what the envelope adds at the centre, at most ||R||² / (2 ||Aw + R||), is a tenth or
 // more of what its fine bound leaves above the centre's norm (near the end of a search; the arms measured lose
-// 0.06 % to 0.8 % to the envelope at a point, docs/theory.md).
+// 0.04 % to 0.8 % to the envelope at a point, docs/theory.md).
 double choices_upper(const LipschitzTerms& t, const BoxForms& d, const VelocityChoices& v, double lower,
                      std::vector<double>& weights, double& work) {
   const std::vector<double> A_frobenius = frobenius_uppers(t.A);
@@ -355,15 +355,12 @@ double choices_upper(const LipschitzTerms& t, const BoxForms& d, const VelocityC
   const std::vector<Eigen::VectorXd> ws = enumerated_vertices(v.velocity_bounds, free, v.frictionless);
   std::vector<VertexEnvelope> vertices;
   std::vector<Choice> choices;
-  TaylorMatrix R;  // R over the vertices' symbols
-  double R_frobenius = 0.0;
+  // R over the vertices' symbols: the box's and one per velocity component carried as a symbol.
+  const TaylorMatrix R = with_symbols(t.R, t.R.symbols() + static_cast<int>(std::count(free.begin(), free.end(), true)));
+  const double R_frobenius = R.frobenius_upper();
   for (const Eigen::VectorXd& w : ws) {
     VertexEnvelope e;
     e.Aw = linear_combination(t.A, w, free, A_frobenius);
-    if (vertices.empty()) {
-      R = with_symbols(t.R, e.Aw.symbols());
-      R_frobenius = R.frobenius_upper();
-    }
     e.Aw_frobenius = e.Aw.frobenius_upper();
     weigh_sides(e.Aw, d, weights);
     e.envelope = v.frictionless ? e.Aw : pattern_envelope(e.Aw, R, e.Aw_frobenius + R_frobenius);

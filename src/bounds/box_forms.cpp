@@ -10,8 +10,12 @@ namespace obsgain {
 
 namespace {
 
-// A number rounded up past its own floating-point error.
-double up(double x) { return x * kTaylorInflation + kTaylorUnderflow; }
+using taylor_detail::up;
+
+// The largest distance from a point of the interval to `c` (rounded up): |v - c| for every v in x.
+double farther_end(const Interval& x, double c) {
+  return std::max((Interval(x.upper()) - Interval(c)).upper(), (Interval(c) - Interval(x.lower())).upper());
+}
 
 // A side of the box: centre ± radius (radius rounded up, so that the box's side lies inside), and for a wide revolute
 // side the rectangle around its arc (every end point rounded outward). Its symbols are the next ones free.
@@ -25,7 +29,7 @@ BoxSide box_side(const Interval& side, int joint, bool revolute, int& next_symbo
   s.arc_symbol = next_symbol++;
   const Interval x = boost::numeric::cos(Interval(0.0, s.radius)), y = boost::numeric::sin(Interval(-s.radius, s.radius));
   s.x_centre = 0.5 * (x.lower() + x.upper());
-  s.x_radius = std::max((Interval(x.upper()) - Interval(s.x_centre)).upper(), (Interval(s.x_centre) - Interval(x.lower())).upper());
+  s.x_radius = farther_end(x, s.x_centre);
   s.y_radius = std::max(-y.lower(), y.upper());
   return s;
 }
@@ -37,7 +41,7 @@ std::pair<Taylor, Taylor> arc_trigonometry(const BoxSide& side) {
   const Interval cm = boost::numeric::cos(Interval(side.centre)), sm = boost::numeric::sin(Interval(side.centre));
   const double c0 = centre(cm), s0 = centre(sm);
   // |cos m - c0| |x| + |sin m - s0| |y| with |x|, |y| <= 1.
-  const double error = up((Interval(cm.upper()) - Interval(c0)).upper() + (Interval(sm.upper()) - Interval(s0)).upper());
+  const double error = up(farther_end(cm, c0) + farther_end(sm, s0));
   Taylor c = c0 * x - s0 * y, s = s0 * x + c0 * y;
   c.r = up(c.r + error);
   s.r = up(s.r + error);

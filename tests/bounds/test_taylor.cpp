@@ -365,7 +365,7 @@ TEST_P(TaylorDynamics, RemaindersShrinkAsTheCubeOfTheWidth) {
 }
 
 // A box of the given width in every searched joint, at a random place.
-std::vector<obsgain::Interval> random_box(const obsgain::JointSearch& s, double width, std::mt19937_64& rng) {
+std::vector<obsgain::Interval> random_interval_box(const obsgain::JointSearch& s, double width, std::mt19937_64& rng) {
   std::uniform_real_distribution<double> angle(-3.0, 3.0);
   std::vector<obsgain::Interval> box;
   for (std::size_t k = 0; k < s.joints.size(); ++k) {
@@ -400,7 +400,7 @@ void expect_box_bounds_hold(const std::string& file, double width, int trials, i
   const obsgain::BoxBounds boxes(model, s, model.velocity_bounds);
   std::mt19937_64 rng(5);
   for (int trial = 0; trial < trials; ++trial) {
-    const std::vector<obsgain::Interval> box = random_box(s, width, rng);
+    const std::vector<obsgain::Interval> box = random_interval_box(s, width, rng);
     const double bound = boxes.joint_lipschitz(box, 0.0).upper, attained = attained_in_box(model, s, box, points, rng);
     EXPECT_GE(bound, attained) << file;
     EXPECT_LE(bound, ratio * attained) << file;
@@ -432,7 +432,7 @@ TEST_P(TaylorDynamics, ScaledJointLipschitzBoxBoundsHoldAndAreTightOnSmallBoxes)
     Eigen::VectorXd t = Eigen::VectorXd::Ones(model.dof());
     for (int i = 1; i < model.dof(); ++i) t(i) = std::exp(logarithm(rng));
     const obsgain::BoxBounds scaled(model, s, model.velocity_bounds, t);
-    const std::vector<obsgain::Interval> box = random_box(s, 0.02, rng);
+    const std::vector<obsgain::Interval> box = random_interval_box(s, 0.02, rng);
     const double bound = scaled.joint_lipschitz(box, 0.0).upper, unscaled = plain.joint_lipschitz(box, 0.0).upper;
     EXPECT_GE(unit_scaled.joint_lipschitz(box, 0.0).upper, unscaled) << GetParam();
     EXPECT_LE(unit_scaled.joint_lipschitz(box, 0.0).upper, unscaled * (1.0 + 1e-12)) << GetParam();

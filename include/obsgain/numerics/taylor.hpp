@@ -55,6 +55,7 @@ struct Taylor {
   Taylor(double x) : c(x) {}  // NOLINT: an exact constant mixes freely with forms
   Taylor(const Taylor& x) : c(x.c), r(x.r), symbols(x.symbols) { copy_coefficients(x); }
   Taylor& operator=(const Taylor& x) {
+    if (this == &x) return *this;
     c = x.c;
     r = x.r;
     symbols = x.symbols;
