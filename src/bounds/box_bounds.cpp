@@ -1,6 +1,7 @@
 #include "obsgain/bounds/box_bounds.hpp"
 
 #include "obsgain/bounds/box_forms.hpp"
+#include "obsgain/bounds/inertia_floor.hpp"
 #include "obsgain/bounds/taylor_matrix.hpp"
 #include "obsgain/model/dynamics.hpp"
 #include "obsgain/numerics/spectrum.hpp"
@@ -60,19 +61,21 @@ std::vector<TaylorMatrix> unit_jacobians(const BoxForms& d) {
   return J;
 }
 
-// A proven lower bound of λmin(M) over the box (the model's inertia floor where that is higher).
-double inertia_lower(const Model& model, const BoxForms& d, std::vector<double>* weights) {
+// A proven lower bound of λmin(M) over the box (the model's inertia floor, bounds/inertia_floor.hpp, where that is
+// higher).
+double inertia_lower(double floor, const BoxForms& d, std::vector<double>* weights) {
   const TaylorMatrix M = taylor_matrix(d.M.data(), d.n, d.n, d.symbols);
   if (weights) weigh_sides(M, d, *weights);
-  return std::max(smallest_eigenvalue_lower(M), inertia_floor(model));
+  return std::max(smallest_eigenvalue_lower(M), floor);
 }
 
 // Where M⁻¹ cannot be enclosed (a box too wide for the Neumann series): ||M⁻¹(J D + F)|| <= (||J|| + ||F||) / λmin(M),
 // finite once M is proven positive definite on the box.
-BoxBound lipschitz_by_inertia_floor(const Model& model, const BoxForms& d, const std::vector<TaylorMatrix>& J,
-                                    const Eigen::MatrixXd& vertices, unsigned first, unsigned count) {
+BoxBound lipschitz_by_inertia_floor(const Model& model, double floor, const BoxForms& d,
+                                    const std::vector<TaylorMatrix>& J, const Eigen::MatrixXd& vertices, unsigned first,
+                                    unsigned count) {
   BoxBound bound{kInfinity, {}};
-  const double lambda = inertia_lower(model, d, &bound.split_weight);
+  const double lambda = inertia_lower(floor, d, &bound.split_weight);
   if (!(lambda > 0.0)) return bound;
   double J_norm = 0.0;
   const std::vector<double> J_frobenius = frobenius_uppers(J);
@@ -188,7 +191,8 @@ DiagonalScaling diagonal_scaling(const Eigen::VectorXd& t) {
 BoxBounds::BoxBounds(const Model& model, const JointSearch& search, const Eigen::VectorXd& velocity_bounds,
                      const Eigen::VectorXd& scaling)
     : model_(model), search_(search), velocity_bounds_(velocity_bounds), vertices_(box_vertices(velocity_bounds)),
-      count_(static_cast<unsigned>(vertices_.cols())), half_(count_ / 2), frictionless_(model.friction.isZero(0.0)) {
+      count_(static_cast<unsigned>(vertices_.cols())), half_(count_ / 2), frictionless_(model.friction.isZero(0.0)),
+      inertia_floor_(inertia_floor(model)) {
   if (scaling.size()) scaling_ = diagonal_scaling(scaling);
 }
 
@@ -196,7 +200,7 @@ BoxBound BoxBounds::inverse_inertia(const std::vector<Interval>& box) const {
   const BoxForms d = box_forms(model_, search_, box, false);
   const BoxCosts costs = box_costs(d.n, d.symbols, frictionless_);
   BoxBound bound{kInfinity, {}, costs.inertia + costs.refinement};
-  const double lambda = inertia_lower(model_, d, &bound.split_weight);
+  const double lambda = inertia_lower(inertia_floor_, d, &bound.split_weight);
   if (lambda > 0.0) bound.upper = (Interval(1.0) / Interval(lambda)).upper();
   return bound;
 }
@@ -403,7 +407,7 @@ BoxBound BoxBounds::joint_lipschitz(const std::vector<Interval>& box, double low
     return bound;
   };
   const auto by_inertia_floor = [&](const BoxForms& d, const std::vector<TaylorMatrix>& J) {
-    BoxBound bound = lipschitz_by_inertia_floor(model_, d, J, vertices_, half_, count_);
+    BoxBound bound = lipschitz_by_inertia_floor(model_, inertia_floor_, d, J, vertices_, half_, count_);
     bound.upper = (Interval(bound.upper) * Interval(scaling.stretch)).upper();
     return bound;
   };

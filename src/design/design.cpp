@@ -92,12 +92,18 @@ CertificateSummary tight_summary(const Design& d, std::optional<double> target, 
   CertificateSummary s;
   const double m = d.rate_margin, L = certificate_L(d, kind);
   s.theta_star = tight_theta_star(d.alpha, d.beta, target.value_or(0.0), L);
-  s.observer = observer_at(d, kind, target ? tight_theta_star(d.alpha, d.beta, *target / (1.0 - m), L) : *theta);
+  RiccatiCertificate cert;
+  // For a target, θ is solved at γ / (1 - m). Where θ >> γ (a bound far above the attained value) that leaves L·peak
+  // within about 1e-7 of 1, too close for the Riccati solve; each retry raises θ by the same margin, up to 4 times.
+  for (int retry = 0; retry <= (target ? 4 : 0) && !cert.exists; ++retry) {
+    s.observer = observer_at(
+        d, kind, target ? tight_theta_star(d.alpha, d.beta, *target / (1.0 - m), L) * std::pow(1.0 + m, retry) : *theta);
+    s.rate = tight_rate(s.observer.k1, s.observer.k2, L);
+    s.observer.gamma = target ? *target : s.rate - m * std::abs(s.rate);
+    cert = tight_certificate(s.observer.k1, s.observer.k2, L, s.observer.gamma);
+  }
   CertifiedObserver& o = s.observer;
   o.L = L;
-  s.rate = tight_rate(o.k1, o.k2, L);
-  o.gamma = target ? *target : s.rate - m * std::abs(s.rate);
-  const RiccatiCertificate cert = tight_certificate(o.k1, o.k2, L, o.gamma);
   if (cert.exists) {
     const Eigen::VectorXd& t = d.bounds.scaling;
     o.P = kind == CertificateKind::scaled ? scaled_per_joint_matrix(cert.P, t) : per_joint_matrix(cert.P, d.dof);
@@ -244,6 +250,14 @@ void choose_lipschitz(Design& d, const BoundReport& bounds, const DesignOptions&
                                "M(q)⁻¹ on every box (raise --bound-budget; real arms have rotor inertia: "
                                "--armature)",
                                to_string(options.lipschitz));
+  const BoundBracket& joint = bounds.L_joint_bracket;
+  if (bounds.certified && !options.L_override && options.lipschitz == LipschitzKind::joint &&
+      std::isfinite(d.L_used) && joint.upper > options.wide_bracket * joint.lower && joint.lower > 0.0)
+    d.warnings.push_back(fmt::format(
+        "L_joint's proven upper end {:.6g} is {:.3g} times the value attained ({:.6g}): the certified gains pay for that "
+        "gap (a larger --bound-budget narrows it{})",
+        joint.upper, joint.upper / joint.lower, joint.lower,
+        d.armature.isZero(0.0) ? "; real arms have rotor inertia: --armature" : ""));
   if (options.L_override) {
     d.warnings.push_back(fmt::format("L overridden by the user: {} (the model gives L_joint = {:.6g}, L_paper = {:.6g})",
                                      d.L_used, bounds.L_joint.value, bounds.L_paper));

@@ -138,12 +138,6 @@ std::vector<int> configuration_joints(const Model& model) {
   return joints;
 }
 
-double inertia_floor(const Model& model) {
-  if (const auto* p = std::get_if<Planar2RParameters>(&model.structure))
-    return std::min(p->armature[0], p->armature[1]);  // π1π2 > π3² makes the rigid part positive definite
-  return chain_inertia_floor(std::get<SerialChain>(model.structure));
-}
-
 void plant_acceleration(const Model& model, const ConfigurationDynamics& at, const Eigen::LLT<Eigen::MatrixXd>& llt,
                         const Eigen::Ref<const Eigen::VectorXd>& v, const Eigen::Ref<const Eigen::VectorXd>& tau,
                         Eigen::Ref<Eigen::VectorXd> qdd, DynamicsWorkspace& work) {

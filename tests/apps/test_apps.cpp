@@ -230,13 +230,34 @@ TEST(Urdf, AOneJointRobotIsDesignedAndValidated) {
 }
 
 // A search stopped before M(q)⁻¹ was bounded on every box proves nothing: an unmet request (exit 1) that says what
-// would help, not bad input.
+// would help, not bad input. (A chain of revolute joints has an inertia floor that bounds M⁻¹ on every box at once,
+// bounds/inertia_floor.hpp; a two-link model file without rotor inertia has none.)
 TEST(DesignGainsApp, AnUnfinishedBoundSearchExitsOneAndSaysWhatWouldHelp) {
   const std::string examples = OBSGAIN_EXAMPLES_DIR;
-  const AppRun r = run("design-gains", "--robot " + examples + "/arm3.urdf --gamma 5 --bound-budget 0.0001 --quiet");
+  const AppRun r =
+      run("design-gains", "--robot " + examples + "/two_link_arm.json --gamma 5 --bound-budget 0.0001 --quiet");
   EXPECT_EQ(r.exit_code, 1) << r.err;
   EXPECT_NE(r.err.find("--bound-budget"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("--armature"), std::string::npos) << r.err;
+}
+
+// A proof far above the value attained is still a proof, but its cost is named: a warning gives the factor and what
+// narrows it. A converged bracket (the Pendubot's, 1e-6) gets none.
+TEST(DesignGainsApp, AWideProvenBracketIsNamedInAWarning) {
+  const std::string examples = OBSGAIN_EXAMPLES_DIR;
+  const auto warnings = [](const AppRun& r) {
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    const nlohmann::json j = nlohmann::json::parse(r.out);
+    std::string all;
+    for (const auto& w : j["warnings"]) all += w.get<std::string>() + "\n";
+    return all;
+  };
+  const std::string wide =
+      warnings(run("design-gains", "--robot " + examples + "/arm3.urdf --gamma 5 --bound-budget 0.0001 --quiet --json"));
+  EXPECT_NE(wide.find("times the value attained"), std::string::npos) << wide;
+  EXPECT_NE(wide.find("--bound-budget"), std::string::npos) << wide;
+  const std::string converged = warnings(run("design-gains", "--robot pendubot --gamma 1.27 --quiet --json"));
+  EXPECT_EQ(converged.find("times the value attained"), std::string::npos) << converged;
 }
 
 // Every number in the JSON but the wall times is the same for one and two threads and on a second run: the search

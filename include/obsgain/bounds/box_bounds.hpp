@@ -63,6 +63,7 @@ class BoxBounds {
   // F = 0 (the full pattern D = I is then the maximum, ||A D|| <= ||A||, and the only one needed).
   unsigned count_, half_;
   bool frictionless_;
+  double inertia_floor_;  // λmin(M(q)) >= it for every q (bounds/inertia_floor.hpp)
   std::optional<DiagonalScaling> scaling_;
 };
 

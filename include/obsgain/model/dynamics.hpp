@@ -147,8 +147,6 @@ Eigen::MatrixXd coriolis_jacobian(const std::vector<Eigen::MatrixXd>& N, const E
 // whole serial chain about its first joint moves no body relative to another: its M and C do not depend on q1.
 std::vector<int> configuration_joints(const Model& model);
 
-// A proven lower bound of λmin(M(q)) for every q (zero when none is known beyond positive semidefiniteness).
-double inertia_floor(const Model& model);
 
 // Scratch for the functions below, sized once: loops that reuse it allocate nothing.
 struct DynamicsWorkspace {

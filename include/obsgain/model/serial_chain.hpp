@@ -39,9 +39,4 @@ struct SerialChain {
   int dof() const { return static_cast<int>(joints.size()); }
 };
 
-// A proven lower bound of λmin(M(q)) for every q. M is the bodies' kinetic-energy matrix, positive semidefinite
-// for every q (a sum of Jᵀ m J + Jᵀ I J with m >= 0, I ⪰ 0), plus diag(armature): λmin(M) >= min_i armature_i,
-// less what rounding in the lumped inertias may have taken (docs/theory.md, "M⁻¹ over a box").
-double chain_inertia_floor(const SerialChain& chain);
-
 }  // namespace obsgain
