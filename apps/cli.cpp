@@ -300,6 +300,10 @@ void add_monte_carlo_options(CLI::App& app, MonteCarloArguments& a) {
       ->type_name("NUMBER");
   app.add_option("--atol", a.atol, "integrator absolute tolerance")->capture_default_str()
       ->type_name("NUMBER");
+  app.add_option("--step-budget", a.step_budget,
+                 "integration steps the run may take, estimated before it starts (default 5e7, minutes on two cores); "
+                 "past it no trial runs and the message says what would help")
+      ->type_name("STEPS");
   app.add_option("--scenario", a.scenario, "paper (lower equilibrium, u = 1.5 sin 100t) or random (computed-torque tracking when fully actuated)")
       ->check(CLI::IsMember({"paper", "random"}))
       ->capture_default_str()
@@ -329,6 +333,7 @@ MonteCarloOptions to_monte_carlo_options(const MonteCarloArguments& a, const Des
   o.simulation.horizon = parse_number("horizon", a.horizon);
   o.simulation.rtol = parse_number("rtol", a.rtol);
   o.simulation.atol = parse_number("atol", a.atol);
+  if (!a.step_budget.empty()) o.step_budget = parse_number("step-budget", a.step_budget);
   o.scenario = a.scenario == "paper" ? Scenario::paper : Scenario::random;
   o.initial_errors = a.initial_errors == "practical" ? InitialErrors::practical
                      : a.initial_errors == "global"  ? InitialErrors::global
@@ -355,7 +360,7 @@ ValidationTarget load_validation_target(const DesignArguments& design, const std
   if (!std::filesystem::is_regular_file(design_file, error))
     throw InputError("cannot read design file '" + design_file + "' (not a file)");
   for (const CLI::Option* option : design.given)
-    if (option->count() > 0 && option->get_name() != "--quiet")
+    if (option->count() > 0 && option->get_name() != "--quiet" && option->get_name() != "--threads")
       throw InputError("--design " + design_file + " fixes the robot and the gains: " + option->get_name() +
                        " cannot be given with it");
   std::ifstream file(design_file);

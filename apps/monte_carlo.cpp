@@ -9,7 +9,8 @@
 int main(int argc, char** argv) {
   CLI::App app{"Validate a certified observer design by Monte Carlo simulation", "monte-carlo"};
   app.set_version_flag("--version", obsgain::version());
-  app.footer("Exit codes: 0 no trajectory left the certified envelope; 1 a violation was found; 2 bad input.\n"
+  app.footer("Exit codes: 0 no trajectory left the certified envelope; 1 a violation was found, or the run would exceed\n"
+      "--step-budget (a gain too stiff to simulate in minutes: the message says what would help); 2 bad input.\n"
       "Examples:\n  build/monte-carlo --robot pendubot --gamma 1.27 --trials 1000\n"
       "  build/monte-carlo --design design.json --trials 200 --seed 2");
   obsgain::DesignArguments design;
@@ -27,6 +28,7 @@ int main(int argc, char** argv) {
     const obsgain::ValidationTarget target = obsgain::load_validation_target(design, arguments.design_file);
     const obsgain::MonteCarloReport report = obsgain::run_monte_carlo(target.model, target.certificate, options);
     obsgain::close_progress_line();
+    if (!report.not_run.empty()) throw obsgain::UnmetRequest(report.not_run);
     const int code = report.certificate_held() ? 0 : 1;
     if (!obsgain::distributed::output_rank()) return code;  // rank 0 prints and writes the files
     if (json->count() > 0 && (json_path.empty() || json_path == "-")) {  // "-": stdout, as usual

@@ -10,7 +10,8 @@
 int main(int argc, char** argv) {
   CLI::App app{"Write a bound-verification report (HTML, JSON, CSV, plots)", "verify-bounds"};
   app.set_version_flag("--version", obsgain::version());
-  app.footer("Exit codes: 0 report written and no violation; 1 a Monte Carlo violation; 2 bad input.\n"
+  app.footer("Exit codes: 0 report written and no violation; 1 a Monte Carlo violation, or Monte Carlo past --step-budget\n"
+      "(the report is written; the message says what would help); 2 bad input.\n"
       "Examples:\n  build/verify-bounds --robot pendubot --gamma 1.27 --out report/\n"
       "  build/verify-bounds --robot examples/arm3.urdf --gamma 5 --trials 50 --bound-budget 15 --out report3/");
   obsgain::DesignArguments design;
@@ -42,6 +43,7 @@ int main(int argc, char** argv) {
     std::cout << "report: " << written.html << "\n       " << written.json << "\n";
     if (!written.plots) std::cout << "plots missing: " << written.plots_note << "\n";
     if (!report.design.design.unfinished.empty()) throw obsgain::UnmetRequest(report.design.design.unfinished);
+    if (!report.monte_carlo.not_run.empty()) throw obsgain::UnmetRequest("Monte Carlo " + report.monte_carlo.not_run);
     return report.monte_carlo.certificate_held() ? 0 : 1;
   });
 }

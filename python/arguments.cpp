@@ -108,6 +108,7 @@ MonteCarloOptions monte_carlo_options(py::dict& arguments, const ProgressHooks& 
   o.simulation.horizon = take<double>(arguments, "horizon").value_or(o.simulation.horizon);
   o.simulation.rtol = take<double>(arguments, "rtol").value_or(o.simulation.rtol);
   o.simulation.atol = take<double>(arguments, "atol").value_or(o.simulation.atol);
+  o.step_budget = take<double>(arguments, "step_budget").value_or(o.step_budget);
   o.scenario = choice(arguments, "scenario", {"random", "paper"}) == "paper" ? Scenario::paper : Scenario::random;
   const std::string errors = choice(arguments, "initial_errors", {"both", "practical", "global"});
   o.initial_errors = errors == "practical" ? InitialErrors::practical

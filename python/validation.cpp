@@ -113,6 +113,9 @@ void bind_monte_carlo(py::module_& m) {
                          py::arg("trials") = d.trials);
        }, "Fitted decay rates over the trials that stayed in the box.")
       .def_property_readonly("certificate_held", [](const PyMonteCarlo& r) { return r.report.certificate_held(); })
+      .def_property_readonly("not_run", [](const PyMonteCarlo& r) { return r.report.not_run; },
+                             "Why no trial was simulated (the run's estimated integration steps exceed step_budget), "
+                             "and what would help; empty when the trials ran.")
       .def_property_readonly("per_trial", [](const PyMonteCarlo& r) { return per_trial(r.report); },
                              "One NumPy array per trial field (index, worst ratios, fitted_rate, assumption flags, ...).")
       .def("trajectory", &trajectory, py::arg("trial") = 0,
@@ -123,7 +126,8 @@ void bind_monte_carlo(py::module_& m) {
         py::arg("progress") = py::none(),
         "Validates a design by simulating plant and observer from randomised errors: monte-carlo from Python.\n\n"
         "Keywords: trials=1000, seed=1, threads=0, horizon=1 [s], rtol=1e-8, atol=1e-10, scenario='random' | "
-        "'paper', initial_errors='both' | 'practical' | 'global'.\n"
+        "'paper', initial_errors='both' | 'practical' | 'global', step_budget=5e7 (past it no trial runs: not_run says "
+        "why).\n"
         "robot: the robot the design was made for (default: the design's own, loaded again for a design read from "
         "JSON). A trial depends on (seed, index) only: the report does not depend on threads.");
 }

@@ -202,6 +202,8 @@ Plot tradeoff_plot(const VerificationReport& r) {
 std::vector<Plot> plots(const VerificationReport& r) {
   // A design whose bounds support no certificate has only its bound curves to show.
   if (!r.design.design.unfinished.empty()) return {bound_curves_plot(r)};
+  // Nor has a Monte Carlo run past its step budget any trajectory.
+  if (!r.monte_carlo.not_run.empty()) return {bound_curves_plot(r), rate_plot(r)};
   std::vector<Plot> out{bound_curves_plot(r), example_run_plot(r), error_traces_plot(r), rate_plot(r)};
   if (r.design.deployment) out.push_back(tradeoff_plot(r));
   return out;
@@ -263,10 +265,12 @@ std::string verdict_section(const VerificationReport& r) {
     << escape(d.certificate == CertificateKind::scaled ? std::string("L_T") : d.L_source) << "). Bounds: "
     << (b.certified ? fmt::format("proven by interval branch and bound, largest relative gap {:.1e}", worst_gap)
                     : std::string("numeric estimates (not proven)"))
-    << ".</p>\n<p>Monte Carlo: " << mc.trials << " trials, "
-    << (mc.certificate_held() ? "<span class='ok'>no violation of the envelope or the Lyapunov level</span>"
-                              : "<span class='bad'>violations found</span>")
-    << ", " << mc.assumption_violations << " left the velocity box.</p>\n";
+    << ".</p>\n<p>Monte Carlo: "
+    << (!mc.not_run.empty() ? "<span class='bad'>" + escape(mc.not_run) + "</span>.</p>\n"
+        : fmt::format("{} trials, {}, {} left the velocity box.</p>\n", mc.trials,
+                      mc.certificate_held() ? "<span class='ok'>no violation of the envelope or the Lyapunov level</span>"
+                                            : "<span class='bad'>violations found</span>",
+                      mc.assumption_violations));
   if (r.design.deployment) {
     const DeploymentCertificate& dep = r.design.deployment->certificate;
     h << fmt::format("<p>Deployed at T = {:g} s: {} ultimate errors ||q̂ − q|| ≤ {:.4g} rad, ||v̂ − v|| ≤ {:.4g} rad/s; "
@@ -367,6 +371,7 @@ std::string certificate_section(const VerificationReport& r) {
 std::string monte_carlo_section(const VerificationReport& r) {
   const MonteCarloReport& mc = r.monte_carlo;
   std::ostringstream h;
+  if (!mc.not_run.empty()) return "<h2>5. Monte Carlo</h2>\n<p class='warn'>Monte Carlo " + escape(mc.not_run) + ".</p>\n";
   h << "<h2>5. Monte Carlo</h2>\n<p>" << mc.trials << " trials (" << mc.scenario << " scenario, " << mc.initial_errors
     << " initial errors, horizon " << mc.simulation.horizon << " s, seed " << mc.seed << "): "
     << (mc.certificate_held() ? "<span class='ok'>no trajectory left the certified envelope</span>"

@@ -425,6 +425,7 @@ nlohmann::json to_json(const MonteCarloReport& r) {
           {"violation_tolerance", r.simulation.violation_tolerance},
           {"numerical_floor", "none: the error is integrated as exp(rho) u with ||u|| = 1 and checked in log space"},
           {"certificate_held", r.certificate_held()}};
+  if (!r.not_run.empty()) j["not_run"] = r.not_run;
   if (c.sampled) {
     const SampledCertificate& d = *c.sampled;
     j["numerical_floor"] = "sampled: the plant is integrated alone and the Observer class runs as deployed";
@@ -449,6 +450,7 @@ std::string format_report(const MonteCarloReport& r) {
   const CertifiedObserver& o = c.observer;
   out << fmt::format("  certificate ({}): ||e(t)|| <= {:.6g} ||e(0)|| exp(-{:.6g} t), gains k1 = {:.6g}, k2 = {:.6g}\n",
                      to_string(o.certificate), o.k, o.gamma, o.k1, o.k2);
+  if (!r.not_run.empty()) return out.str() + "  " + r.not_run + "\n";
   out << fmt::format("  passed {} | envelope violations {} | Lyapunov violations {} | left the velocity box {}\n",
                      r.passed, r.envelope_violations, r.lyapunov_violations, r.assumption_violations);
   out << fmt::format("  worst ratio to the envelope {:.4g}, to the Lyapunov level {:.4g} (violation above 1 + {:.0e})\n",

@@ -192,6 +192,18 @@ void validate_monte_carlo_options(const MonteCarloOptions& options) {
   require_in("horizon", options.simulation.horizon, 1e-6, 1e3);
   require_in("rtol", options.simulation.rtol, 1e-13, 1e-4);
   require_in("atol", options.simulation.atol, 1e-20, 1e-6);
+  if (!(options.step_budget >= 1.0))
+    throw InputError(fmt::format("--step-budget = {} must be at least 1", options.step_budget));
+}
+
+double estimated_steps(const ObserverCertificate& certificate, const MonteCarloOptions& options) {
+  const double horizon = options.simulation.horizon, trials = options.trials;
+  if (certificate.sampled) return trials * 4.0 * horizon / certificate.sampled->sample_period;
+  const CertifiedObserver& o = certificate.observer;
+  // |roots of s² + k1 s + k2|: sqrt(k2) when they are complex, else the larger real one.
+  const double discriminant = o.k1 * o.k1 - 4.0 * o.k2;
+  const double fastest = discriminant < 0.0 ? std::sqrt(o.k2) : 0.5 * (o.k1 + std::sqrt(discriminant));
+  return trials * (kStepsPerStiffness * fastest * horizon + 100.0);
 }
 
 namespace {
@@ -256,6 +268,17 @@ void share_records(std::vector<TrialRecord>& records, int begin, int end) {
   for (int i = 0; i < count; ++i) records[static_cast<std::size_t>(i)] = unpack(&values[static_cast<std::size_t>(i * kRecordWidth)]);
 }
 
+// Why a run past its step budget is not started, and what would help (a shorter run, or a gain a controller runs).
+std::string over_step_budget(const ObserverCertificate& certificate, const MonteCarloOptions& options, double steps) {
+  const CertifiedObserver& o = certificate.observer;
+  return fmt::format("not simulated: {} trials of {} s would take about {:.2g} integration steps, past the budget of "
+                     "{:.2g} (--step-budget): the gains k1 = {:.6g}, k2 = {:.6g} make the error dynamics stiff for an "
+                     "explicit integrator (hours of simulation). What would help: fewer --trials or a shorter --horizon "
+                     "(the certified envelope falls by e^-5 within 5/gamma = {:.3g} s), or a design with a smaller gain "
+                     "(the motors' rotor inertia, --armature, or a larger --bound-budget, narrow the bounds the gain pays for)",
+                     options.trials, options.simulation.horizon, steps, options.step_budget, o.k1, o.k2, 5.0 / o.gamma);
+}
+
 // Trials outside the box are assumption violations: never passes, never observer failures.
 void summarise(MonteCarloReport& report) {
   std::vector<double> rates;
@@ -296,6 +319,11 @@ MonteCarloReport run_monte_carlo(const Model& model, const ObserverCertificate& 
                           : options.initial_errors == InitialErrors::global  ? "global"
                                                                               : "both";
   report.threads = std::min(resolve_threads(options.threads), options.trials);
+  if (const double steps = estimated_steps(certificate, options); steps > options.step_budget) {
+    report.trials = 0;
+    report.not_run = over_step_budget(certificate, options, steps);
+    return report;
+  }
   report.records.resize(options.trials);
   // Each trial is a pure function of (seed, index): the records do not depend on which thread ran which.
   std::atomic<int> done{0};

@@ -118,7 +118,8 @@ TEST(MonteCarloApp, DesignFileIsTheWholeTruth) {
   ASSERT_EQ(run("design-gains", "--robot " + model + " --gamma 1.27 --bounds numeric --json " + design).exit_code, 0);
   expect_refused("--design " + design + " --robot pendubot", "--robot cannot be given with it", "monte-carlo");
   expect_refused("--design " + design + " --gamma 3", "--gamma cannot be given with it", "monte-carlo");
-  EXPECT_EQ(run("monte-carlo", "--design " + design + " --trials 2 --horizon 0.1").exit_code, 0);
+  // Threads are the simulation's, not the design's: no result depends on them.
+  EXPECT_EQ(run("monte-carlo", "--design " + design + " --trials 2 --horizon 0.1 --threads 1").exit_code, 0);
   nlohmann::json renamed = nlohmann::json::parse(read_text(design));
   ASSERT_EQ(renamed.at("design").at("certificate").get<std::string>(), "scaled");
   renamed["design"]["certificate"] = "sos";  // not a certificate this version knows: not read as another one
@@ -126,6 +127,28 @@ TEST(MonteCarloApp, DesignFileIsTheWholeTruth) {
                  "design.certificate 'sos' is not one of", "monte-carlo");
   std::ofstream(model, std::ios::app) << "\n";  // the same robot, but the file changed: the design may be stale
   expect_refused("--design " + design + " --trials 2", "run design-gains again", "monte-carlo");
+}
+
+// A gain of 20,000 makes the error dynamics stiff: 1000 trials of 1 s would simulate for hours. The run is refused
+// as a request that cannot be met (exit 1, one line saying what would help); a short run of the same design is
+// simulated; verify-bounds still writes its report, saying why there is no Monte Carlo.
+TEST(MonteCarloApp, AGainTooStiffToSimulateExitsOneAndSaysWhatWouldHelp) {
+  const std::string design = ::testing::TempDir() + "/obsgain_stiff_design.json";
+  ASSERT_EQ(run("design-gains", "--theta 20000 --bounds numeric --quiet --json " + design).exit_code, 0);
+  const AppRun refused = run("monte-carlo", "--design " + design);
+  EXPECT_EQ(refused.exit_code, 1);
+  EXPECT_TRUE(refused.out.empty());
+  EXPECT_EQ(std::count(refused.err.begin(), refused.err.end(), '\n'), 1) << refused.err;
+  for (const char* hint : {"not simulated", "--step-budget", "--horizon", "--trials"})
+    EXPECT_NE(refused.err.find(hint), std::string::npos) << hint << ": " << refused.err;
+  EXPECT_EQ(run("monte-carlo", "--design " + design + " --trials 2 --horizon 0.005").exit_code, 0);
+  const std::string out = ::testing::TempDir() + "/obsgain_stiff_report";
+  const AppRun report = run("verify-bounds", "--theta 20000 --bounds numeric --quiet --out " + out);
+  EXPECT_EQ(report.exit_code, 1);
+  EXPECT_NE(report.err.find("Monte Carlo not simulated"), std::string::npos) << report.err;
+  const nlohmann::json written = read_json(out + "/report.json");
+  EXPECT_NE(written.at("monte_carlo").at("not_run").get<std::string>().find("--step-budget"), std::string::npos);
+  EXPECT_NE(read_text(out + "/report.html").find("Monte Carlo not simulated"), std::string::npos);
 }
 
 TEST(DesignGainsApp, JsonOnStdoutAndTableOtherwise) {

@@ -86,7 +86,16 @@ def test_ctrl_c_stops_a_long_search():
 def test_ctrl_c_stops_monte_carlo(design):
     interrupt_after(0.5)
     with pytest.raises(KeyboardInterrupt):
-        obsgain.monte_carlo(design, trials=1_000_000, threads=1)
+        obsgain.monte_carlo(design, trials=1_000_000, threads=1, step_budget=1e12)  # hours: stopped by Ctrl-C
+
+
+def test_a_run_past_the_step_budget_says_what_would_help(pendubot):
+    stiff = obsgain.design_gains(pendubot, theta=20000, bounds="numeric")
+    refused = obsgain.monte_carlo(stiff)
+    assert refused.trials == 0 and not refused.certificate_held
+    assert "--horizon" in refused.not_run and json.loads(refused.to_json())["not_run"] == refused.not_run
+    short = obsgain.monte_carlo(stiff, trials=2, horizon=0.005)
+    assert short.not_run == "" and short.passed + short.assumption_violations == 2
 
 
 @pytest.mark.parametrize("example,arguments", [("design_pendubot.py", ["--trials", "12"]),

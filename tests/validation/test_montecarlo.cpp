@@ -105,3 +105,60 @@ TEST(MonteCarlo, RefusesWhatItCannotValidate) {
 }
 
 }  // namespace
+
+namespace {
+
+// The step estimate against the integrator's own count: at θ = 2000 (α = β = 1, so the fastest error mode is θ) the
+// run takes about the steps estimated (on average 40 to 44 per unit of θ t were measured there, against 60), and no
+// trial far more.
+TEST(MonteCarlo, EstimatedStepsMatchTheStepsTaken) {
+  const obsgain::Model model = obsgain::pendubot();
+  const obsgain::ObserverCertificate c = design(model, at_theta(2000.0));
+  obsgain::MonteCarloOptions options;
+  options.trials = 24;
+  options.simulation.horizon = 0.05;
+  const double estimate = obsgain::estimated_steps(c, options);
+  EXPECT_NEAR(estimate, 24 * (obsgain::kStepsPerStiffness * 2000.0 * 0.05 + 100.0), 1e-6);
+  const auto report = obsgain::run_monte_carlo(model, c, options);
+  ASSERT_EQ(report.records.size(), 24u);
+  double steps = 0.0;
+  for (const obsgain::TrialRecord& r : report.records) {
+    steps += r.result.steps;
+    EXPECT_LE(r.result.steps, 1.5 * estimate / 24);
+  }
+  EXPECT_GT(steps, 0.4 * estimate);
+  EXPECT_LT(steps, 1.2 * estimate);
+  // Overdamped: the fastest mode is the larger real root of s² + k1 s + k2, (k1 + sqrt(k1² - 4 k2)) / 2.
+  obsgain::ObserverCertificate overdamped = c;
+  overdamped.observer.k1 = 1000.0;
+  overdamped.observer.k2 = 1e4;
+  options.trials = 1;
+  EXPECT_NEAR(obsgain::estimated_steps(overdamped, options),
+              obsgain::kStepsPerStiffness * 0.5 * (1000.0 + std::sqrt(1e6 - 4e4)) * 0.05 + 100.0, 1e-9);
+}
+
+// A gain of 20,000 would take about 1.2e9 steps at the defaults (hours): the run is not started and says what helps;
+// the same design on a run that fits the budget is simulated.
+TEST(MonteCarlo, ARunPastTheStepBudgetIsNotStartedAndSaysWhatWouldHelp) {
+  const obsgain::Model model = obsgain::pendubot();
+  const obsgain::ObserverCertificate c = design(model, at_theta(20000.0));
+  obsgain::MonteCarloOptions options;
+  const auto refused = obsgain::run_monte_carlo(model, c, options);
+  EXPECT_FALSE(refused.not_run.empty());
+  EXPECT_FALSE(refused.certificate_held());
+  EXPECT_EQ(refused.trials, 0);
+  EXPECT_TRUE(refused.records.empty());
+  for (const char* hint : {"--trials", "--horizon", "--step-budget", "--armature"})
+    EXPECT_NE(refused.not_run.find(hint), std::string::npos) << hint;
+  options.trials = 4;
+  options.simulation.horizon = 0.01;
+  ASSERT_LT(obsgain::estimated_steps(c, options), options.step_budget);
+  const auto run = obsgain::run_monte_carlo(model, c, options);
+  EXPECT_TRUE(run.not_run.empty());
+  EXPECT_EQ(run.passed + run.assumption_violations, 4);
+  EXPECT_TRUE(run.certificate_held());
+  options.step_budget = 0.0;
+  EXPECT_THROW(obsgain::run_monte_carlo(model, c, options), obsgain::InputError);
+}
+
+}  // namespace

@@ -24,6 +24,10 @@ struct MonteCarloOptions {
   double practical_position_error = 0.05;  // ||q̂(0) - q(0)|| bound of the practical set [rad]
   double global_error_scale = 10.0;        // global set: |e_q| <= this [rad], |v̂(0)| <= this × V
   int input_attempts = 4;                  // random scenario: input and initial perturbation quartered after each exit from V̄
+  // Integration steps the whole run may take, estimated before it starts (estimated_steps): gains in the tens of
+  // thousands make the error dynamics stiff, and the run would take hours. Past it no trial is simulated and the
+  // report says what would help (about 10 minutes of a seven-joint arm on two cores).
+  double step_budget = 5e7;
   // Told how many trials are done, about five times a second (from the calling thread). An exception it throws
   // stops the run within the trials under way, and leaves run_monte_carlo.
   std::function<void(int done, int total, double seconds)> progress;
@@ -62,12 +66,14 @@ struct MonteCarloReport {
   std::string scenario, initial_errors;
   SimulationOptions simulation;
   std::vector<TrialRecord> records;
+  // Why no trial was simulated (the run's estimated steps exceed the budget), and what would help; empty when they ran.
+  std::string not_run;
 
-  bool certificate_held() const { return envelope_violations == 0 && lyapunov_violations == 0; }
+  bool certificate_held() const { return not_run.empty() && envelope_violations == 0 && lyapunov_violations == 0; }
 };
 
 // Throws InputError naming the bad value: trials >= 1, threads in [0, 256], horizon in [1e-6, 1e3] s, rtol in
-// [1e-13, 1e-4], atol in [1e-20, 1e-6].
+// [1e-13, 1e-4], atol in [1e-20, 1e-6], step budget >= 1.
 void validate_monte_carlo_options(const MonteCarloOptions& options);
 
 // The certificate a design delivers: its selected observer, and the sampled offsets when it is deployed. InputError
@@ -92,6 +98,15 @@ TrialRecord run_trial(const Model& model, const ObserverCertificate& certificate
 std::vector<TrajectorySample> trial_trajectory(const Model& model, const ObserverCertificate& certificate,
                                                const MonteCarloOptions& options, const TrialRecord& record);
 
+// The integration steps a run is expected to take. Continuous observer: about kStepsPerStiffness per unit of ω t per
+// trial, ω the fastest mode of the linear error dynamics s² + k1 s + k2 (per joint), which limits an explicit
+// Runge–Kutta method's step (measured at the default tolerances on the Pendubot, θ = 200 to 20,000, 60 trials each:
+// 30 to 58 steps per unit on average, 10 to 83 for single trials; a six-joint arm alike). Sampled: the plant alone, a
+// few steps per sample period.
+inline constexpr double kStepsPerStiffness = 60.0;
+double estimated_steps(const ObserverCertificate& certificate, const MonteCarloOptions& options);
+
+// Past options.step_budget no trial runs: the report's not_run says why and what would help.
 MonteCarloReport run_monte_carlo(const Model& model, const ObserverCertificate& certificate,
                                  const MonteCarloOptions& options);
 
