@@ -243,6 +243,7 @@ std::string verdict_line(const Design& d) {
                        "initial observer error, while |v<sub>i</sub>(t)| ≤ V<sub>i</sub>.",
                        o.k, o.gamma);
   if (o.certified) return "<span class='bad'>NOT PROVEN</span>: " + escape(d.not_proven_reason) + ".";
+  if (!d.unfinished.empty()) return "<span class='bad'>NOT CERTIFIED</span>: " + escape(d.unfinished) + ".";
   return "<span class='bad'>NOT CERTIFIED</span>: the chosen gain certifies no rate.";
 }
 
@@ -259,7 +260,12 @@ std::string verdict_section(const VerificationReport& r) {
       if (k->upper > 0.0) worst_gap = std::max(worst_gap, (k->upper - k->lower) / k->upper);
   std::ostringstream h;
   h << "<div style='border:2px solid " << (proven ? "#060" : "#a00") << ";padding:.5em 1em;margin:1em 0'>\n<p>"
-    << verdict_line(d) << "</p>\n<p>Gains k1 = " << number(o.k1) << ", k2 = " << number(o.k2) << " (θ = "
+    << verdict_line(d) << "</p>\n";
+  // Bounds that support no certificate leave no gains and no simulation: the verdict line says why.
+  const std::string command = "<p style='font-size:90%'>Command: <code>" + escape(r.command_line) + "</code><br>" +
+                              escape(version()) + ", " + escape(r.date) + "</p>\n</div>\n";
+  if (!d.unfinished.empty()) return h.str() + command;
+  h << "<p>Gains k1 = " << number(o.k1) << ", k2 = " << number(o.k2) << " (θ = "
     << number(o.theta) << ", α = " << number(d.alpha) << ", β = " << number(d.beta) << "), " << to_string(d.certificate)
     << " certificate on L = " << number(o.L) << " ("
     << escape(d.certificate == CertificateKind::scaled ? std::string("L_T") : d.L_source) << "). Bounds: "
@@ -278,9 +284,7 @@ std::string verdict_section(const VerificationReport& r) {
                      dep.sample_period, dep.proven() && proven ? "certified" : "estimated (not proven)",
                      dep.bounds.position_norm, dep.bounds.velocity_norm, dep.velocity_error_tolerance, dep.max_sample_period);
   }
-  h << "<p style='font-size:90%'>Command: <code>" << escape(r.command_line) << "</code><br>" << escape(version()) << ", "
-    << escape(r.date) << "</p>\n</div>\n";
-  return h.str();
+  return h.str() + command;
 }
 
 std::string model_section(const VerificationReport& r) {

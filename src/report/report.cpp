@@ -307,8 +307,10 @@ std::string format_bounds(const Design& d) {
   if (b.certified) {
     out << "  certified brackets [attained, proven upper] (interval branch and bound; the design uses the upper ends):\n";
     for (const auto& [name, m, k] : rows)
-      out << fmt::format("  {:<8} [{:.10g}, {:.10g}]  gap {:.1e}, {} boxes, {:.2f} s{}\n", name, k->lower, k->upper,
-                         (k->upper - k->lower) / k->upper, k->boxes, k->seconds, stop_note(k->stop));
+      out << fmt::format("  {:<8} [{:.10g}, {:.10g}]  {}, {} boxes, {:.2f} s{}\n", name, k->lower, k->upper,
+                         std::isfinite(k->upper) ? fmt::format("gap {:.1e}", (k->upper - k->lower) / k->upper)
+                                                 : std::string("no finite upper bound yet"),
+                         k->boxes, k->seconds, stop_note(k->stop));
   }
   out << fmt::format("  {:<8} {:>14.7f}\n", "||F||", b.F_norm);
   out << fmt::format("  {:<8} {:>14.7f}   = M0 (B + ||F||)\n", "L_paper", b.L_paper);
@@ -357,7 +359,6 @@ std::string format_gains(const Design& d) {
   out << fmt::format("Design ({} certificate): theta = {:.7g}, alpha = {:.7g}, beta = {:.7g}\n", to_string(d.certificate),
                      o.theta, d.alpha, d.beta);
   out << fmt::format("  gains k1 = {:.7g}, k2 = {:.7g}\n", o.k1, o.k2);
-  if (!d.unfinished.empty()) return out.str() + "  NOT CERTIFIED: " + d.unfinished + "\n";
   if (!o.certified) return out.str() + "  NOT CERTIFIED\n";
   // Never the word "certified" on a certificate that rests on estimated bounds.
   out << fmt::format("  {}: ||e(t)|| <= {:.6g} ||e(0)|| exp(-{:.6g} t) while |v_i(t)| <= V_i\n",
@@ -375,7 +376,10 @@ std::string format_report(const Design& d) {
   if (d.armature.size() > 0 && !d.armature.isZero(0.0))
     out << fmt::format("  armature (reflected rotor inertia on M's diagonal) [kg m^2]: {}\n", format_vector(d.armature));
   for (const auto& note : d.notes) out << "  note: " << note << "\n";
-  out << "\n" << format_bounds(d) << "\n" << format_certificates(d) << "\n" << format_gains(d);
+  out << "\n" << format_bounds(d) << "\n";
+  // Bounds that support no certificate leave no gains to show (they would read as zeros): only why, and what helps.
+  if (!d.unfinished.empty()) return out.str() + "Design: NOT CERTIFIED: " + d.unfinished + "\n";
+  out << format_certificates(d) << "\n" << format_gains(d);
   return out.str();
 }
 

@@ -262,6 +262,17 @@ TEST(DesignGainsApp, AnUnfinishedBoundSearchExitsOneAndSaysWhatWouldHelp) {
   EXPECT_EQ(r.exit_code, 1) << r.err;
   EXPECT_NE(r.err.find("--bound-budget"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("--armature"), std::string::npos) << r.err;
+  // The table shows the bounds and why there is no design, not a design of zero gains or a gap of NaN.
+  EXPECT_NE(r.out.find("Design: NOT CERTIFIED: L_joint has no finite proven upper bound"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("no finite upper bound yet"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("gains k1"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("nan"), std::string::npos) << r.out;
+  // The report alike: the reason as its verdict, no gains, and still exit 1.
+  const std::string out = ::testing::TempDir() + "/obsgain_unfinished_report";
+  EXPECT_EQ(run("verify-bounds", "--robot " + examples + "/two_link_arm.json --gamma 5 --bound-budget 0.0001 --quiet --out " + out).exit_code, 1);
+  const std::string html = read_text(out + "/report.html");
+  EXPECT_NE(html.find("NOT CERTIFIED</span>: L_joint has no finite proven upper bound"), std::string::npos);
+  EXPECT_EQ(html.find("Gains k1"), std::string::npos);
 }
 
 // A proof far above the value attained is still a proof, but its cost is named: a warning gives the factor and what
