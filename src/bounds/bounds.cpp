@@ -3,6 +3,7 @@
 #include "obsgain/bounds/perturbation_polytope.hpp"
 #include "obsgain/model/dynamics.hpp"
 #include "obsgain/numerics/optimize.hpp"
+#include "obsgain/numerics/sdp.hpp"
 #include "obsgain/numerics/spectrum.hpp"
 
 #include <algorithm>
@@ -232,21 +233,33 @@ double coriolis_jacobian_maximum(const Model& model, const Eigen::VectorXd& q, c
   return largest.value();
 }
 
+// The Gram matrix (A D + R)ᵀ(A D + R) of pattern `bits` (bit j: d_j = 1) from the blocks AᵀA, AᵀR, RᵀR: O(n²).
+void pattern_gram(const Eigen::MatrixXd& AA, const Eigen::MatrixXd& AR, const Eigen::MatrixXd& RR, unsigned bits,
+                  Eigen::MatrixXd& G) {
+  const auto n = AA.rows();
+  for (Eigen::Index j = 0; j < n; ++j) {
+    const bool dj = (bits >> j) & 1u;
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const bool di = (bits >> i) & 1u;
+      G(i, j) = RR(i, j) + (di && dj ? AA(i, j) : 0.0) + (di ? AR(i, j) : 0.0) + (dj ? AR(j, i) : 0.0);
+    }
+  }
+}
+
 // Choices for L_joint: vertex index in the low n bits, saturation pattern in the next n bits. With
 // X = A D + R, A = M⁻¹J, R = M⁻¹F: XᵀX = D AᵀA D + D AᵀR + RᵀA D + RᵀR, so each of the 2^n patterns costs
 // O(n²) once the three Gram blocks of a vertex are formed. A vertex whose patterns cannot beat the maximum so far is
 // passed over: X Xᵀ ≼ (A + R)(A + R)ᵀ + R Rᵀ for every pattern (docs/theory.md, "Every saturation pattern at once"),
 // and without friction only D = I can (||A D|| <= ||A||).
-// With a scaling T = diag(t), A and R become T A T⁻¹ and T R T⁻¹ (D is diagonal: T (A D + R) T⁻¹ = T A T⁻¹ D + T R T⁻¹).
-double joint_lipschitz_maximum(const Model& model, const Eigen::VectorXd& q, const Eigen::VectorXd& velocity_bounds,
-                               const Eigen::VectorXd& scaling, int& choice) {
+// With a diagonal scaling T = diag(t), A and R become T A T⁻¹ and T R T⁻¹ (D is diagonal: T (A D + R) T⁻¹ = T A T⁻¹ D + T R T⁻¹).
+double diagonal_lipschitz_maximum(const Model& model, const Eigen::VectorXd& q, const Eigen::VectorXd& velocity_bounds,
+                                  const Eigen::VectorXd& t, int& choice) {
   const int n = model.dof();
   const unsigned vertex_count = 1u << n;
   const unsigned first_vertex = model.friction.isZero(0.0) ? vertex_count / 2 : 0u;
   std::vector<Eigen::MatrixXd> N;
   coriolis_tensors(model, q, N);
   const Eigen::LLT<Eigen::MatrixXd> llt = factor_inertia(model, q);
-  const Eigen::VectorXd t = scaling.size() ? scaling : Eigen::VectorXd::Ones(n);
   const Eigen::MatrixXd R = t.asDiagonal() * llt.solve(model.friction) * t.cwiseInverse().asDiagonal();
   const Eigen::MatrixXd RR = R.transpose() * R;
   LargestSingularValue largest(n);
@@ -263,21 +276,52 @@ double joint_lipschitz_maximum(const Model& model, const Eigen::VectorXd& q, con
     AR.noalias() = A.transpose() * R;
     // Full patterns first: they usually win, and a high running maximum prunes the rest.
     for (unsigned s = vertex_count; s-- > (frictionless ? vertex_count - 1 : 0u);) {
-      for (int j = 0; j < n; ++j) {
-        const bool dj = (s >> j) & 1u;
-        for (int i = 0; i < n; ++i) {
-          const bool di = (s >> i) & 1u;
-          G(i, j) = RR(i, j) + (di && dj ? AA(i, j) : 0.0) + (di ? AR(i, j) : 0.0) + (dj ? AR(j, i) : 0.0);
-        }
-      }
+      pattern_gram(AA, AR, RR, s, G);
       if (largest.offer(G)) choice = static_cast<int>(c | (s << n));
     }
   }
   return largest.value();
 }
 
+// The same with a full T, which D does not commute with: X = T (A D + R) T⁻¹ = (Ã D + R̃) T⁻¹ with Ã = T A and
+// R̃ = T R, so XᵀX = T⁻ᵀ G T⁻¹ with G the Gram matrix of Ã D + R̃ (the same O(n²) per pattern). Every pattern is
+// offered: the envelope needs D at the end of the product.
+double similarity_lipschitz_maximum(const Model& model, const Eigen::VectorXd& q, const Eigen::VectorXd& velocity_bounds,
+                                    const Eigen::MatrixXd& T, int& choice) {
+  const int n = model.dof();
+  const unsigned vertex_count = 1u << n;
+  std::vector<Eigen::MatrixXd> N;
+  coriolis_tensors(model, q, N);
+  const Eigen::LLT<Eigen::MatrixXd> llt = factor_inertia(model, q);
+  const Eigen::MatrixXd T_inverse = T.inverse();
+  const Eigen::MatrixXd R = T * llt.solve(model.friction);
+  const Eigen::MatrixXd RR = R.transpose() * R;
+  LargestSingularValue largest(n);
+  Eigen::MatrixXd A(n, n), AA(n, n), AR(n, n), G(n, n);
+  for (unsigned c = model.friction.isZero(0.0) ? vertex_count / 2 : 0u; c < vertex_count; ++c) {
+    A = T * llt.solve(coriolis_jacobian(N, vertex(velocity_bounds, c)));
+    AA.noalias() = A.transpose() * A;
+    AR.noalias() = A.transpose() * R;
+    for (unsigned s = vertex_count; s-- > 0u;) {
+      pattern_gram(AA, AR, RR, s, G);
+      if (largest.offer(T_inverse.transpose() * G * T_inverse)) choice = static_cast<int>(c | (s << n));
+    }
+  }
+  return largest.value();
+}
+
+bool is_diagonal(const Eigen::MatrixXd& S) { return S.isDiagonal(0.0); }
+
+double joint_lipschitz_maximum(const Model& model, const Eigen::VectorXd& q, const Eigen::VectorXd& velocity_bounds,
+                               const Eigen::MatrixXd& scaling, int& choice) {
+  if (scaling.size() == 0)
+    return diagonal_lipschitz_maximum(model, q, velocity_bounds, Eigen::VectorXd::Ones(model.dof()), choice);
+  if (is_diagonal(scaling)) return diagonal_lipschitz_maximum(model, q, velocity_bounds, scaling.diagonal(), choice);
+  return similarity_lipschitz_maximum(model, q, velocity_bounds, scaling, choice);
+}
+
 // The search of L_joint (scaling empty) or of L_T, with the maximising vertex and pattern.
-BoundMaximum lipschitz_search(const Model& model, const Eigen::VectorXd& velocity_bounds, const Eigen::VectorXd& scaling,
+BoundMaximum lipschitz_search(const Model& model, const Eigen::VectorXd& velocity_bounds, const Eigen::MatrixXd& scaling,
                               const BoundOptions& options) {
   const int n = model.dof();
   const unsigned vertex_count = 1u << n;
@@ -298,50 +342,58 @@ BoundMaximum lipschitz_search(const Model& model, const Eigen::VectorXd& velocit
   return result;
 }
 
-// The T that minimises the maximum of ||T Φ T⁻¹|| over the configurations, every vertex and pattern at each: T is
-// chosen on the maximising matrices found so far, and each configuration's maximising choice under that T joins
-// them, until none beats the maximum T was chosen on.
-Eigen::VectorXd scaling_on(const Model& model, const Eigen::VectorXd& V, const std::vector<Eigen::VectorXd>& configurations,
-                           double& chosen_on) {
+// ||T Φ T⁻¹||.
+double similar_norm(const Eigen::MatrixXd& T, const Eigen::MatrixXd& Phi) {
+  return is_diagonal(T) ? spectral_norm(T.diagonal().asDiagonal() * Phi * T.diagonal().cwiseInverse().asDiagonal())
+                        : spectral_norm(T * Phi * T.inverse());
+}
+
+// The T that minimises the maximum of ||T Φ T⁻¹|| over the configurations, every vertex and pattern at each (full, or
+// diagonal): T is chosen on the maximising matrices found so far, and each configuration's maximising choice under
+// that T joins them, until none beats the maximum T was chosen on.
+Eigen::MatrixXd scaling_on(const Model& model, const Eigen::VectorXd& V, const std::vector<Eigen::VectorXd>& configurations,
+                           const BoundOptions& options, double& chosen_on) {
+  const int n = model.dof();
+  const bool full = n <= options.full_scaling_max_dof;
   std::vector<Eigen::MatrixXd> matrices;
-  Eigen::VectorXd t = Eigen::VectorXd::Ones(model.dof());
+  Eigen::MatrixXd T = Eigen::MatrixXd::Identity(n, n);
   for (int iteration = 0; iteration < 20; ++iteration) {  // two to five on the arms measured; 20 bounds the work
     bool added = false;
     for (const Eigen::VectorXd& q : configurations) {
       int choice = 0;
-      const double value = joint_lipschitz_maximum(model, q, V, t, choice);
+      const double value = joint_lipschitz_maximum(model, q, V, T, choice);
       if (matrices.empty() || value > chosen_on * (1.0 + 1e-9)) {
         const auto c = static_cast<unsigned>(choice);  // vertex in the low n bits, pattern in the next n
-        const int n = model.dof();
         matrices.push_back(perturbation_matrix(model, q, vertex(V, c & ((1u << n) - 1)), pattern(n, c >> n)));
         added = true;
       }
       chosen_on = std::max(chosen_on, value);
     }
     if (!added) break;
-    t = best_diagonal_scaling(matrices);
+    T = full ? best_similarity(matrices, options.full_scaling_max_condition)
+             : Eigen::MatrixXd(best_diagonal_scaling(matrices).asDiagonal());
     chosen_on = 0.0;
-    for (const Eigen::MatrixXd& Phi : matrices)
-      chosen_on = std::max(chosen_on, spectral_norm(t.asDiagonal() * Phi * t.cwiseInverse().asDiagonal()));
+    for (const Eigen::MatrixXd& Phi : matrices) chosen_on = std::max(chosen_on, similar_norm(T, Phi));
   }
-  return t;
+  return T;
 }
 
-// Diagonal scaling: T from the worst configurations known (the three searches' maximisers), then L_T searched; its
+// Similarity scaling: T from the worst configurations known (the three searches' maximisers), then L_T searched; its
 // maximiser joins them and T is chosen again, until L_T's search finds nothing above what T was chosen on. Kept
 // when L_T is scaling_min_gain below L_joint. Every T gives L_T >= the maximum over those configurations, and T
-// minimises that maximum (a convex function of log T): once it is not below the threshold, no T is.
+// minimises that maximum (globally: a quasi-convex problem in W = TᵀT, or convex in log T): once it is not below the
+// threshold, no T is.
 void choose_scaling(const Model& model, BoundReport& report, const BoundOptions& options) {
   const Eigen::VectorXd& V = report.velocity_bounds;
   std::vector<Eigen::VectorXd> worst{report.L_joint.q, report.M0.q, report.B.q};
   const double keep = (1.0 - options.scaling_min_gain) * report.L_joint.value;
   for (int round = 0; round < options.scaling_rounds; ++round) {
     double chosen_on = 0.0;
-    const Eigen::VectorXd t = scaling_on(model, V, worst, chosen_on);
+    const Eigen::MatrixXd T = scaling_on(model, V, worst, options, chosen_on);
     if (chosen_on >= keep) return;
-    const BoundMaximum L = lipschitz_search(model, V, t, options);
+    const BoundMaximum L = lipschitz_search(model, V, T, options);
     if (L.value < keep && (!report.scaled() || L.value < report.L_scaled.value)) {
-      report.scaling = t;
+      report.scaling = T;
       report.L_scaled = L;
     }
     if (L.value <= chosen_on * (1.0 + 1e-3)) return;
@@ -370,13 +422,12 @@ double coriolis_jacobian_norm(const Model& model, const Eigen::VectorXd& q, cons
 }
 
 double joint_lipschitz_norm(const Model& model, const Eigen::VectorXd& q, const Eigen::VectorXd& w,
-                            const Eigen::VectorXd& saturation_pattern, const Eigen::VectorXd& scaling) {
+                            const Eigen::VectorXd& saturation_pattern, const Eigen::MatrixXd& scaling) {
   std::vector<Eigen::MatrixXd> N;
   coriolis_tensors(model, q, N);
   const Eigen::MatrixXd X = coriolis_jacobian(N, w) * saturation_pattern.asDiagonal() + model.friction;
   const Eigen::MatrixXd Phi = factor_inertia(model, q).solve(X);
-  if (scaling.size() == 0) return spectral_norm(Phi);
-  return spectral_norm(scaling.asDiagonal() * Phi * scaling.cwiseInverse().asDiagonal());
+  return scaling.size() == 0 ? spectral_norm(Phi) : similar_norm(scaling, Phi);
 }
 
 double max_coriolis_jacobian_norm(const Model& model, const Eigen::VectorXd& q, const Eigen::VectorXd& velocity_bounds) {
@@ -385,7 +436,7 @@ double max_coriolis_jacobian_norm(const Model& model, const Eigen::VectorXd& q, 
 }
 
 double max_joint_lipschitz_norm(const Model& model, const Eigen::VectorXd& q, const Eigen::VectorXd& velocity_bounds,
-                                const Eigen::VectorXd& scaling) {
+                                const Eigen::MatrixXd& scaling) {
   int choice = 0;
   return joint_lipschitz_maximum(model, q, velocity_bounds, scaling, choice);
 }
@@ -407,6 +458,94 @@ Eigen::VectorXd best_diagonal_scaling(const std::vector<Eigen::MatrixXd>& matric
   };
   const Eigen::VectorXd bound = Eigen::VectorXd::Constant(n - 1, std::log(1e3));
   return scaling(minimize_nonsmooth(worst, Eigen::VectorXd::Zero(n - 1), -bound, bound, 1e-4, 300 * static_cast<int>(n - 1)).x);
+}
+
+namespace {
+
+// The symmetric n x n matrix with ones at the k-th entry of the lower triangle, packed row by row, and at its mirror.
+Eigen::MatrixXd symmetric_unit(int n, int k) {
+  Eigen::MatrixXd E = Eigen::MatrixXd::Zero(n, n);
+  for (int i = 0, index = 0; i < n; ++i)
+    for (int j = 0; j <= i; ++j, ++index)
+      if (index == k) E(i, j) = E(j, i) = 1.0;
+  return E;
+}
+
+// Some W with I ≼ W ≼ κ I and Φ̂ᵀ W Φ̂ ≺ W for every Φ̂ given (empty when the solver finds none): minimise τ over
+// Φ̂ᵀ W Φ̂ - W ≼ τ I, stopped at the first iterate with τ < 0 that every block confirms in double.
+Eigen::MatrixXd contracting_metric(const std::vector<Eigen::MatrixXd>& matrices, double kappa) {
+  const auto n = static_cast<int>(matrices.front().rows());
+  const int p = n * (n + 1) / 2;
+  std::vector<Eigen::MatrixXd> units;
+  for (int k = 0; k < p; ++k) units.push_back(symmetric_unit(n, k));
+  const auto W_of = [&](const Eigen::VectorXd& y) {
+    Eigen::MatrixXd W = Eigen::MatrixXd::Zero(n, n);
+    for (int k = 0; k < p; ++k) W += y(k) * units[static_cast<std::size_t>(k)];
+    return W;
+  };
+  std::vector<LinearMatrixInequality> blocks;
+  for (const Eigen::MatrixXd& Phi : matrices) {
+    LinearMatrixInequality lmi{n, packed(Eigen::MatrixXd::Zero(n, n)), {}};
+    for (int k = 0; k < p; ++k) {
+      const Eigen::MatrixXd& E = units[static_cast<std::size_t>(k)];
+      lmi.terms.emplace_back(k, packed(Phi.transpose() * E * Phi - E));
+    }
+    lmi.terms.emplace_back(p, packed(-Eigen::MatrixXd::Identity(n, n)));
+    blocks.push_back(std::move(lmi));
+  }
+  LinearMatrixInequality below{n, packed(Eigen::MatrixXd::Identity(n, n)), {}}, above{n, packed(-kappa * Eigen::MatrixXd::Identity(n, n)), {}};
+  for (int k = 0; k < p; ++k) {
+    below.terms.emplace_back(k, packed(-units[static_cast<std::size_t>(k)]));
+    above.terms.emplace_back(k, packed(units[static_cast<std::size_t>(k)]));
+  }
+  blocks.push_back(std::move(below));
+  blocks.push_back(std::move(above));
+  // A strictly feasible start: W = √κ I, τ above every block's largest eigenvalue.
+  const double c = std::sqrt(kappa);
+  double tau = 0.0;
+  for (const Eigen::MatrixXd& Phi : matrices) tau = std::max(tau, c * (spectral_norm(Phi) * spectral_norm(Phi) - 1.0));
+  SdpOptions o;
+  o.start = Eigen::VectorXd::Zero(p + 1);
+  for (int i = 0; i < n; ++i) o.start(i * (i + 1) / 2 + i) = c;
+  o.start(p) = tau + 1.0;
+  const auto confirmed = [&](const Eigen::VectorXd& y) {
+    if (!(y(p) < 0.0)) return false;
+    for (const LinearMatrixInequality& lmi : blocks)
+      if (symmetric_eigenvalues(evaluate(lmi, y)).maxCoeff() >= 0.0) return false;
+    return true;
+  };
+  o.enough = confirmed;
+  const SdpResult r = solve_sdp(p + 1, blocks, [&] {
+    Eigen::VectorXd objective = Eigen::VectorXd::Zero(p + 1);
+    objective(p) = -1.0;
+    return objective;
+  }(), o);
+  return confirmed(r.y) ? W_of(r.y) : Eigen::MatrixXd();
+}
+
+}  // namespace
+
+Eigen::MatrixXd best_similarity(const std::vector<Eigen::MatrixXd>& matrices, double max_condition) {
+  const auto n = matrices.front().rows();
+  // T = I gives max ||Φ||: bisection on t below it, on Φ / t.
+  double low = 0.0, high = 0.0;
+  for (const Eigen::MatrixXd& Phi : matrices) high = std::max(high, spectral_norm(Phi));
+  Eigen::MatrixXd best_W = Eigen::MatrixXd::Identity(n, n);
+  std::vector<Eigen::MatrixXd> scaled(matrices.size());
+  for (int step = 0; step < 30 && high - low > 1e-4 * high; ++step) {
+    const double t = 0.5 * (low + high);
+    for (std::size_t i = 0; i < matrices.size(); ++i) scaled[i] = matrices[i] / t;
+    const Eigen::MatrixXd W = contracting_metric(scaled, max_condition * max_condition);
+    if (W.size() == 0) {
+      low = t;
+    } else {
+      high = t;
+      best_W = W;
+    }
+  }
+  // W = TᵀT with T upper triangular (Cholesky), normalised to T(0, 0) = 1.
+  const Eigen::MatrixXd T = Eigen::LLT<Eigen::MatrixXd>(best_W).matrixU();
+  return T / T(0, 0);
 }
 
 BoundReport compute_bounds(const Model& model, const Eigen::VectorXd& velocity_bounds, const BoundOptions& options) {

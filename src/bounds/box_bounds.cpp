@@ -179,21 +179,41 @@ BoxCosts box_costs(int n, int symbols, bool frictionless) {
           core.refinement / 2, core.choice / 2, core.point / 2};
 }
 
-DiagonalScaling diagonal_scaling(const Eigen::VectorXd& t) {
-  DiagonalScaling s{t, t.cwiseInverse(), 0.0, 0.0};
+Similarity similarity(const Eigen::MatrixXd& T) {
   const UpwardRounding upward;
-  for (Eigen::Index k = 0; k < t.size(); ++k)
-    s.restore = std::max(s.restore, (Interval(1.0) / (Interval(s.columns(k)) * Interval(t(k)))).upper());
-  s.stretch = (Interval(t.maxCoeff()) * Interval(s.columns.maxCoeff())).upper();
+  Similarity s;
+  s.rows = T;
+  s.diagonal = T.isDiagonal(0.0);
+  if (s.diagonal) {
+    const Eigen::VectorXd t = T.diagonal(), inverse = t.cwiseInverse();
+    s.columns = inverse.asDiagonal();
+    s.restore = 0.0;
+    for (Eigen::Index k = 0; k < t.size(); ++k)
+      s.restore = std::max(s.restore, (Interval(1.0) / (Interval(inverse(k)) * Interval(t(k)))).upper());
+    s.stretch = (Interval(t.maxCoeff()) * Interval(inverse.maxCoeff())).upper();
+    return s;
+  }
+  s.columns = T.inverse();
+  // ||T Y - I|| <= its Frobenius norm, formed in interval arithmetic; (T Y)⁻¹ by the Neumann series.
+  Interval squares(0.0);
+  for (Eigen::Index i = 0; i < T.rows(); ++i)
+    for (Eigen::Index k = 0; k < T.cols(); ++k) {
+      Interval entry(i == k ? -1.0 : 0.0);
+      for (Eigen::Index j = 0; j < T.cols(); ++j) entry += Interval(T(i, j)) * Interval(s.columns(j, k));
+      squares += boost::numeric::square(entry);
+    }
+  const Interval delta = boost::numeric::sqrt(squares);
+  s.restore = delta.upper() < 0.5 ? (Interval(1.0) / (Interval(1.0) - delta)).upper() : kInfinity;
+  s.stretch = (Interval(spectral_norm_upper(T)) * Interval(spectral_norm_upper(s.columns))).upper();
   return s;
 }
 
 BoxBounds::BoxBounds(const Model& model, const JointSearch& search, const Eigen::VectorXd& velocity_bounds,
-                     const Eigen::VectorXd& scaling)
+                     const Eigen::MatrixXd& scaling)
     : model_(model), search_(search), velocity_bounds_(velocity_bounds), vertices_(box_vertices(velocity_bounds)),
       count_(static_cast<unsigned>(vertices_.cols())), half_(count_ / 2), frictionless_(model.friction.isZero(0.0)),
       inertia_floor_(inertia_floor(model)) {
-  if (scaling.size()) scaling_ = diagonal_scaling(scaling);
+  if (scaling.size()) scaling_ = similarity(scaling);
 }
 
 BoxBound BoxBounds::inverse_inertia(const std::vector<Interval>& box) const {
@@ -232,22 +252,30 @@ struct LipschitzTerms {
   double tail = 0.0;
 };
 
-// With a scaling, the terms are T A_j S and T R S, and the tail's matrix is stretched by at most max t · max s.
+// With a diagonal scaling, the terms are T A_j Y and T R Y. With a full one, D does not commute with T: the terms are
+// T A_j and T R Y, and each choice's T A(w) D is multiplied by Y on the right (similar_choices_upper). Either way
+// the tail's matrix is stretched by at most ||T|| ||Y||.
 LipschitzTerms lipschitz_terms(const Model& model, const BoxForms& d, const std::vector<TaylorMatrix>& J,
                                const Eigen::VectorXd& velocity_bounds, const TaylorInverse& inverse_M,
-                               const DiagonalScaling* scaling = nullptr) {
+                               const Similarity* scaling = nullptr) {
   LipschitzTerms t;
+  const bool diagonal = scaling && scaling->diagonal;
   const auto times_inverse = [&](const std::vector<Taylor>& Y) {
     std::vector<Taylor> X = product(inverse_M.entries, Y, d.n, d.n, d.n);
-    if (scaling)
+    if (diagonal)
       for (int i = 0; i < d.n; ++i)
-        for (int k = 0; k < d.n; ++k) X[i * d.n + k] = (X[i * d.n + k] * scaling->rows(i)) * scaling->columns(k);
+        for (int k = 0; k < d.n; ++k)
+          X[i * d.n + k] = (X[i * d.n + k] * scaling->rows(i, i)) * scaling->columns(k, k);
     return taylor_matrix(X.data(), d.n, d.n, d.symbols);
   };
   for (int j = 0; j < d.n; ++j) t.A.push_back(times_inverse(unit_jacobian(d, j)));
   std::vector<Taylor> F(static_cast<std::size_t>(d.n * d.n));
   for (int i = 0; i < d.n * d.n; ++i) F[i] = Taylor(model.friction(i / d.n, i % d.n));
   t.R = times_inverse(F);
+  if (scaling && !diagonal) {
+    for (TaylorMatrix& A : t.A) A = sandwiched(scaling->rows, A, {});
+    t.R = sandwiched(scaling->rows, t.R, scaling->columns);
+  }
   const UpwardRounding upward;
   t.tail = (Interval(inverse_M.tail) * Interval(every_choice_upper(J, velocity_bounds, taylor_matrix(F.data(), d.n, d.n, d.symbols)))).upper();
   if (scaling) t.tail = (Interval(t.tail) * Interval(scaling->stretch)).upper();
@@ -392,16 +420,65 @@ double choices_upper(const LipschitzTerms& t, const BoxForms& d, const VelocityC
   return upper;
 }
 
+// The same zero matrix as X, over X's symbols.
+TaylorMatrix zero_like(const TaylorMatrix& X) {
+  TaylorMatrix Z;
+  Z.centre = Eigen::MatrixXd::Zero(X.centre.rows(), X.centre.cols());
+  Z.slopes.assign(X.slopes.size(), Z.centre);
+  Z.curvatures.assign(X.curvatures.size(), Z.centre);
+  return Z;
+}
+
+// A full similarity (lipschitz_terms): T Φ T⁻¹ = ((Σ_j w_j Ã_j) D Y + R̃)(T Y)⁻¹, every vertex and pattern bounded
+// apart (the envelope of "Every saturation pattern at once" needs D at the end of the product), in decreasing order
+// of a cheap bound: ||Ã(w) D||_F over the box, column by column, times ||Y||_F, plus ||R̃||_F.
+double similar_choices_upper(const LipschitzTerms& t, const Eigen::MatrixXd& Y, const BoxForms& d,
+                             const VelocityChoices& v, double lower, std::vector<double>& weights, double& work) {
+  const std::vector<double> A_frobenius = frobenius_uppers(t.A);
+  const std::vector<Eigen::VectorXd> ws =
+      enumerated_vertices(v.velocity_bounds, std::vector<bool>(t.A.size(), false), v.frictionless);
+  const UpwardRounding upward;
+  const double Y_frobenius = (Interval(Y.norm()) * Interval(1.0 + 1e-15)).upper(), R_frobenius = t.R.frobenius_upper();
+  const TaylorMatrix zero = zero_like(t.R);
+  std::vector<TaylorMatrix> Aw;
+  std::vector<Choice> choices;
+  for (const Eigen::VectorXd& w : ws) {
+    Aw.push_back(linear_combination(t.A, w, A_frobenius));
+    weigh_sides(Aw.back(), d, weights);
+    const PatternColumns columns(Aw.back(), zero);
+    for (unsigned bits = 0; bits < (1u << d.n); ++bits) {
+      const PatternColumns::Sizes sizes = columns.pattern(bits);
+      const double cheap = ((Interval(sizes.centre) + Interval(sizes.variation)) * Interval(Y_frobenius) + Interval(R_frobenius)).upper();
+      choices.push_back({cheap * kTaylorInflation, 0.0, static_cast<unsigned>(Aw.size() - 1), bits});
+    }
+  }
+  work += static_cast<double>(choices.size()) * v.costs.choice;
+  int refined = 0;
+  TaylorMatrix scaled;
+  const Eigen::VectorXd ones = Eigen::VectorXd::Ones(d.n);
+  const double upper = refine_choices(choices, lower, [&](const Choice& choice, double floor) {
+    Eigen::VectorXd D(d.n);
+    for (int j = 0; j < d.n; ++j) D(j) = (choice.bits >> j) & 1u;
+    scaled_sum(Aw[choice.vertex], D, zero, Aw[choice.vertex].frobenius_upper(), scaled);
+    TaylorMatrix X;
+    const TaylorMatrix right = sandwiched({}, scaled, Y);
+    scaled_sum(right, ones, t.R, right.frobenius_upper() + R_frobenius, X);
+    return norm_upper(X, floor);
+  }, refined);
+  work += refined * (v.costs.choice + 2.0 * v.costs.refinement);
+  return upper;
+}
+
 }  // namespace
 
 // L_joint over a box. On a wide box the product M⁻¹ J carries both factors' remainders, and the inertia route
 // (||J|| + ||F||) / λmin(M) can be the tighter: where the cheap bound is far above the value attained, both are
 // taken.
-// With a scaling T, every bound below is of ||T Φ S|| (the inertia route's of ||Φ|| times the stretch), and
+// With a scaling T, every bound below is of ||T Φ Y|| (the inertia route's of ||Φ|| times the stretch), and
 // `restored` turns it into a bound of ||T Φ T⁻¹||. Without one both factors are 1 and the products exact.
 BoxBound BoxBounds::joint_lipschitz(const std::vector<Interval>& box, double lower) const {
-  const DiagonalScaling none{};
-  const DiagonalScaling& scaling = scaling_ ? *scaling_ : none;
+  const Similarity none{};
+  const Similarity& scaling = scaling_ ? *scaling_ : none;
   const auto restored = [&](BoxBound bound) {
     bound.upper = (Interval(bound.upper) * Interval(scaling.restore)).upper();
     return bound;
@@ -424,7 +501,13 @@ BoxBound BoxBounds::joint_lipschitz(const std::vector<Interval>& box, double low
   }
   const LipschitzTerms t = lipschitz_terms(model_, d, J, velocity_bounds_, inverse_M, scaling_ ? &*scaling_ : nullptr);
   const UpwardRounding upward;
-  BoxBound bound{every_choice_upper(t.A, velocity_bounds_, t.R) + t.tail, {}, costs.point + costs.forms + costs.products};
+  const bool full = scaling_ && !scaling_->diagonal;
+  // With a full T: ||(Σ w_j Ã_j D) Y + R̃||_F <= ||Σ w_j Ã_j D||_F ||Y||_F + ||R̃||_F.
+  const double every_choice =
+      full ? (Interval(every_choice_upper(t.A, velocity_bounds_, zero_like(t.R))) * Interval(scaling.columns.norm() * (1.0 + 1e-15)) +
+              Interval(t.R.frobenius_upper())).upper()
+           : every_choice_upper(t.A, velocity_bounds_, t.R);
+  BoxBound bound{every_choice + t.tail, {}, costs.point + costs.forms + costs.products};
   if (bound.upper <= lower) {  // cannot beat the value attained: no choice needs enumerating
     weigh_sides(linear_combination(t.A, velocity_bounds_, frobenius_uppers(t.A)), d, bound.split_weight);
     return restored(std::move(bound));
@@ -437,7 +520,8 @@ BoxBound BoxBounds::joint_lipschitz(const std::vector<Interval>& box, double low
     cap = by_inertia.upper;
   }
   const VelocityChoices choices{velocity_bounds_, frictionless_, costs};
-  const double polynomial = choices_upper(t, d, choices, lower - t.tail, bound.split_weight, bound.work);
+  const double polynomial = full ? similar_choices_upper(t, scaling.columns, d, choices, lower - t.tail, bound.split_weight, bound.work)
+                                : choices_upper(t, d, choices, lower - t.tail, bound.split_weight, bound.work);
   bound.upper = std::min(cap, polynomial + t.tail);
   return restored(std::move(bound));
 }

@@ -62,10 +62,10 @@ BoundBracket journaled_search(const CertifiedOptions& options, const std::string
 }
 
 std::string search_request(const Model& model, const Eigen::VectorXd& velocity_bounds, const CertifiedOptions& options,
-                           const Eigen::VectorXd& extra) {
+                           const Eigen::MatrixXd& extra) {
   std::string request = fmt::format("{} ({}) V", model.name, model.fingerprint);
   for (const double V : velocity_bounds) request += fmt::format(" {}", V);
-  for (const double x : extra) request += fmt::format(" {}", x);
+  for (Eigen::Index k = 0; k < extra.size(); ++k) request += fmt::format(" {}", extra.data()[k]);
   return request + fmt::format(" gap {} budget {} focus {} boxes {}", options.relative_gap, options.budget_seconds,
                                options.focus == LipschitzFocus::joint ? "joint" : "paper", options.max_boxes);
 }
@@ -89,7 +89,7 @@ std::optional<CertifiedBounds> certify_bounds(const Model& model, const BoundRep
   BudgetShares budget(options);
   // A request names the scaling T of L_T (empty for the others): a checkpoint of another T is not taken.
   const auto search = [&](double share, const char* name, const auto& bound, const auto& value, const Eigen::VectorXd& seed,
-                          const Eigen::VectorXd& scaling = {}) {
+                          const Eigen::MatrixXd& scaling = {}) {
     const BoundBracket b = journaled_search(options, search_request(model, V, options, scaling), budget.next(share, name),
                                             [&](const BranchAndBoundOptions& o) { return search_joints(s, bound, value, seed, o); });
     budget.spent(b);
@@ -97,7 +97,7 @@ std::optional<CertifiedBounds> certify_bounds(const Model& model, const BoundRep
   };
   CertifiedBounds result;
   // L_joint (scaling empty) or L_T.
-  const auto lipschitz = [&](double share, const char* name, const BoxBounds& b, const Eigen::VectorXd& scaling,
+  const auto lipschitz = [&](double share, const char* name, const BoxBounds& b, const Eigen::MatrixXd& scaling,
                              const Eigen::VectorXd& seed) {
     return search(share, name, [&](const auto& box, double lower) { return b.joint_lipschitz(box, lower); },
                   [&](const Eigen::VectorXd& q) { return max_joint_lipschitz_norm(model, q, V, scaling); }, seed, scaling);
@@ -131,9 +131,10 @@ void apply_certified_bounds(BoundReport& report, const CertifiedBounds& certifie
   report.L_joint.value = report.L_joint_bracket.upper;
   report.wall_seconds += certified.M0.seconds + certified.B.seconds + certified.L_joint.seconds;
   if (certified.L_scaled) {
-    // ||T Φ T⁻¹|| <= ||T|| ||Φ|| ||T⁻¹||: the proven L_joint, stretched, bounds L_T too.
+    // ||T Φ T⁻¹|| <= ||T|| ||Φ|| ||T⁻¹|| <= ||T|| ||Y|| ||(T Y)⁻¹|| ||Φ||: the proven L_joint, stretched, bounds L_T too.
     report.L_scaled_bracket = *certified.L_scaled;
-    const double stretched = (Interval(report.L_joint.value) * Interval(diagonal_scaling(report.scaling).stretch)).upper();
+    const Similarity S = similarity(report.scaling);
+    const double stretched = (Interval(report.L_joint.value) * Interval(S.stretch) * Interval(S.restore)).upper();
     report.L_scaled_bracket.upper = std::min(report.L_scaled_bracket.upper, stretched);
     report.L_scaled.value = report.L_scaled_bracket.upper;
     report.wall_seconds += certified.L_scaled->seconds;

@@ -198,6 +198,28 @@ void scaled_sum(const TaylorMatrix& X, const Eigen::VectorXd& d, const TaylorMat
   out.entry_remainder.resize(0, 0);  // known as a norm only from here
 }
 
+TaylorMatrix sandwiched(const Eigen::MatrixXd& L, const TaylorMatrix& X, const Eigen::MatrixXd& R) {
+  const Eigen::MatrixXd I_left = Eigen::MatrixXd::Identity(X.centre.rows(), X.centre.rows());
+  const Eigen::MatrixXd I_right = Eigen::MatrixXd::Identity(X.centre.cols(), X.centre.cols());
+  const Eigen::MatrixXd& left = L.size() ? L : I_left;
+  const Eigen::MatrixXd& right = R.size() ? R : I_right;
+  const double left_frobenius = frobenius(left), right_frobenius = frobenius(right);
+  double rounding = 0.0;
+  // fl(fl(L T) R): the first product errs by at most γ_n ||L||_F ||T||_F, which R stretches by ||R||_F; the second by
+  // γ_n ||fl(L T)||_F ||R||_F.
+  const auto term = [&](const Eigen::MatrixXd& T) {
+    const Eigen::MatrixXd LT = left * T;
+    rounding += product_rounding(left, T) * right_frobenius + product_rounding(LT, right);
+    return Eigen::MatrixXd(LT * right);
+  };
+  TaylorMatrix out;
+  out.centre = term(X.centre);
+  for (const Eigen::MatrixXd& G : X.slopes) out.slopes.push_back(term(G));
+  for (const Eigen::MatrixXd& H : X.curvatures) out.curvatures.push_back(term(H));
+  out.remainder = up(up(left_frobenius * X.remainder * right_frobenius) + up(rounding));
+  return out;
+}
+
 TaylorMatrix pattern_envelope(const TaylorMatrix& X, const TaylorMatrix& Y, double frobenius) {
   const auto stacked = [](const Eigen::MatrixXd& x, const Eigen::MatrixXd& y) {
     Eigen::MatrixXd z(x.cols() + y.cols(), x.rows());

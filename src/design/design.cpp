@@ -4,6 +4,7 @@
 #include "obsgain/certificate/certificate.hpp"
 #include "obsgain/model/dynamics.hpp"
 #include "obsgain/numerics/optimize.hpp"
+#include "obsgain/numerics/spectrum.hpp"
 
 #include <fmt/format.h>
 
@@ -71,7 +72,7 @@ CertificateSummary paper_summary(const Design& d, std::optional<double> target, 
   return s;
 }
 
-// Diagonal scaling applies to the computed L_joint: not to L_paper, nor to the user's own L.
+// Similarity scaling applies to the computed L_joint: not to L_paper, nor to the user's own L.
 bool scalable(const Design& d) { return d.bounds.scaled() && d.L_source == to_string(LipschitzKind::joint); }
 
 // Of the two norm-bound certificates, the one on the smaller L.
@@ -85,8 +86,8 @@ double certificate_L(const Design& d, CertificateKind kind) {
   return kind == CertificateKind::scaled ? d.bounds.L_scaled.value : d.L_used;
 }
 
-// The bounded-real lemma on L: tight, or scaled (on L_T in the coordinates T e: P = P₂ ⊗ T² in original
-// coordinates, whose envelope constant is P₂'s times cond(T); docs/theory.md, "Diagonal scaling").
+// The bounded-real lemma on L: tight, or scaled (on L_T in the coordinates T e: P = P₂ ⊗ TᵀT in original
+// coordinates, whose envelope constant is P₂'s times cond(T); docs/theory.md, "Similarity scaling").
 CertificateSummary tight_summary(const Design& d, std::optional<double> target, std::optional<double> theta,
                                  CertificateKind kind = CertificateKind::tight) {
   CertificateSummary s;
@@ -106,9 +107,9 @@ CertificateSummary tight_summary(const Design& d, std::optional<double> target, 
   CertifiedObserver& o = s.observer;
   o.L = L;
   if (cert.exists) {
-    const Eigen::VectorXd& t = d.bounds.scaling;
-    o.P = kind == CertificateKind::scaled ? scaled_per_joint_matrix(cert.P, t) : per_joint_matrix(cert.P, d.dof);
-    o.k = kind == CertificateKind::scaled ? cert.k * t.maxCoeff() / t.minCoeff() : cert.k;
+    const Eigen::MatrixXd& T = d.bounds.scaling;
+    o.P = kind == CertificateKind::scaled ? scaled_per_joint_matrix(cert.P, T) : per_joint_matrix(cert.P, d.dof);
+    o.k = kind == CertificateKind::scaled ? cert.k * condition_number(T) : cert.k;
     s.lmi_max_eig = cert.lmi_max_eig;
   }
   o.certified = cert.exists && o.gamma > 0.0;
@@ -280,8 +281,8 @@ void choose_certificate(Design& d, const DesignOptions& options) {
   if (d.certificate == CertificateKind::scaled && !scalable(d)) {
     d.warnings.push_back(fmt::format("--certificate scaled: {}; the tight certificate is used",
                                      d.L_source != to_string(LipschitzKind::joint)
-                                         ? "diagonal scaling applies to the computed L_joint only"
-                                         : "the bounds kept no diagonal scaling (none lowered L_joint's estimate enough)"));
+                                         ? "similarity scaling applies to the computed L_joint only"
+                                         : "the bounds kept no similarity scaling (none lowered L_joint's estimate enough)"));
     d.certificate = CertificateKind::tight;
   }
 }

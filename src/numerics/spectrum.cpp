@@ -94,4 +94,10 @@ bool positive_definite_proven(const IntervalMatrix& X) {
   return true;
 }
 
+double condition_number(const Eigen::MatrixXd& T) {
+  if (T.isDiagonal(0.0)) return T.diagonal().cwiseAbs().maxCoeff() / T.diagonal().cwiseAbs().minCoeff();
+  const Eigen::VectorXd squares = symmetric_eigenvalues(T.transpose() * T);
+  return std::sqrt(squares.maxCoeff() * (1.0 + kEigenPad) / (squares.minCoeff() * (1.0 - kEigenPad)));
+}
+
 }  // namespace obsgain

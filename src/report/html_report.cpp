@@ -332,7 +332,7 @@ std::string bounds_section(const VerificationReport& r) {
        "<i>NLopt</i>, <i>Ipopt</i>: the two optimisers' attained values.</p>\n"
     << "<p>||F|| = " << number(b.F_norm) << ", L_paper = M0 (B + ||F||) = " << number(b.L_paper)
     << ". The certificate uses L = " << number(d.selected().observer.L) << " ("
-    << (d.certificate == CertificateKind::scaled ? "L_T, diagonal scaling T = diag" + format_vector(b.scaling) : d.L_source)
+    << (d.certificate == CertificateKind::scaled ? "L_T, similarity scaling T = " + format_scaling(b.scaling) : d.L_source)
     << ").</p>\n";
   return h.str();
 }
@@ -348,7 +348,7 @@ std::string certificate_section(const VerificationReport& r) {
     << ".</p>\n";
   if (d.shape.optimized) h << "<p>" << escape(shape_summary(d)) << ".</p>\n";
   std::vector<std::string> header = {"", "paper (Theorem 1)", "tight (bounded-real)"};
-  if (d.scaled) header.push_back("scaled (bounded-real, T = diag" + format_vector(d.bounds.scaling) + ")");
+  if (d.scaled) header.push_back("scaled (bounded-real, T = " + format_scaling(d.bounds.scaling) + ")");
   if (d.polytopic) header.push_back("polytopic (full P, SDP)");
   std::string rows = table_row(header, true);
   for (const ComparisonRow& row : certificate_comparison(d)) {

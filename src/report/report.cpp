@@ -1,6 +1,7 @@
 #include "obsgain/report/report.hpp"
 
 #include "json.hpp"
+#include "obsgain/numerics/spectrum.hpp"
 
 #include <fmt/format.h>
 
@@ -62,6 +63,16 @@ std::string format_vector(const Eigen::VectorXd& v) {
   std::string s = "(";
   for (Eigen::Index i = 0; i < v.size(); ++i) s += fmt::format("{}{:.6g}", i ? ", " : "", v(i));
   return s + ")";
+}
+
+std::string format_scaling(const Eigen::MatrixXd& T) {
+  if (T.isDiagonal(0.0)) return "diag" + format_vector(T.diagonal());
+  std::string s = "[";
+  for (Eigen::Index i = 0; i < T.rows(); ++i) {
+    const std::string row = format_vector(T.row(i).transpose());  // (a, b, ...)
+    s += (i ? ", [" : "[") + row.substr(1, row.size() - 2) + "]";
+  }
+  return s + "]";
 }
 
 std::string shape_summary(const Design& d) {
@@ -303,7 +314,7 @@ std::string format_bounds(const Design& d) {
     out << fmt::format("  {:<8} {:>14.7f} {:>14.7f} {:>14.7f}   {}\n", name, m->value, m->global_value,
                        m->polish_value, where(*m));
   }
-  if (b.scaled()) out << fmt::format("  (L_T = sup ||T Phi T^-1||, diagonal scaling T = diag{})\n", format_vector(b.scaling));
+  if (b.scaled()) out << fmt::format("  (L_T = sup ||T Phi T^-1||, similarity scaling T = {})\n", format_scaling(b.scaling));
   if (b.certified) {
     out << "  certified brackets [attained, proven upper] (interval branch and bound; the design uses the upper ends):\n";
     for (const auto& [name, m, k] : rows)
@@ -315,7 +326,7 @@ std::string format_bounds(const Design& d) {
   out << fmt::format("  {:<8} {:>14.7f}\n", "||F||", b.F_norm);
   out << fmt::format("  {:<8} {:>14.7f}   = M0 (B + ||F||)\n", "L_paper", b.L_paper);
   if (d.certificate == CertificateKind::scaled)
-    out << fmt::format("  L used: {:.7g} (L_T, diagonally scaled; L_joint = {:.7g})\n", d.selected().observer.L, d.L_used);
+    out << fmt::format("  L used: {:.7g} (L_T, similarity scaled; L_joint = {:.7g})\n", d.selected().observer.L, d.L_used);
   else
     out << fmt::format("  L used: {:.7g} ({})\n", d.L_used, d.L_source);
   return out.str();
@@ -342,9 +353,9 @@ std::string format_certificates(const Design& d) {
     out << fmt::format("  {:<38} {:>14} {:>16.3e}{}\n", "LMI largest eigenvalue", "", *d.tight.lmi_max_eig,
                        d.scaled && d.scaled->lmi_max_eig ? fmt::format(" {:>16.3e}", *d.scaled->lmi_max_eig) : "");
   if (d.scaled)
-    out << fmt::format("  scaled: T = diag{}, cond(T) = {:.4g}; L_T = {:.7g} where L_joint = {:.7g}\n",
-                       format_vector(d.bounds.scaling), d.bounds.scaling.maxCoeff() / d.bounds.scaling.minCoeff(),
-                       d.bounds.L_scaled.value, d.L_used);
+    out << fmt::format("  scaled: T = {}, cond(T) = {:.4g}; L_T = {:.7g} where L_joint = {:.7g}\n",
+                       format_scaling(d.bounds.scaling), condition_number(d.bounds.scaling), d.bounds.L_scaled.value,
+                       d.L_used);
   if (d.polytope)
     out << fmt::format("  polytope: {} cells ({} per searched joint), {} vertices{}; {:.1f} s\n", d.polytope->cells,
                        d.polytope->grid, d.polytope->vertices,

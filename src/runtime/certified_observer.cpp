@@ -26,11 +26,12 @@ Eigen::MatrixXd per_joint_matrix(const Eigen::Matrix2d& P2, int dof) {
   return P;
 }
 
-Eigen::MatrixXd scaled_per_joint_matrix(const Eigen::Matrix2d& P2, const Eigen::VectorXd& scaling) {
-  const auto dof = static_cast<int>(scaling.size());
-  Eigen::MatrixXd P = Eigen::MatrixXd::Zero(2 * dof, 2 * dof);
+Eigen::MatrixXd scaled_per_joint_matrix(const Eigen::Matrix2d& P2, const Eigen::MatrixXd& scaling) {
+  const auto dof = scaling.rows();
+  const Eigen::MatrixXd W = scaling.transpose() * scaling;
+  Eigen::MatrixXd P(2 * dof, 2 * dof);
   for (int r = 0; r < 2; ++r)
-    for (int c = 0; c < 2; ++c) P.block(r * dof, c * dof, dof, dof).diagonal() = P2(r, c) * scaling.array().square().matrix();
+    for (int c = 0; c < 2; ++c) P.block(r * dof, c * dof, dof, dof) = P2(r, c) * W;
   return P;
 }
 

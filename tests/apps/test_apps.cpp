@@ -439,25 +439,30 @@ TEST(DeploymentApps, DesignGainsWritesTheDeploymentObjectAndExports) {
   EXPECT_LE(m.at("sampled").at("worst_final_velocity_error").get<double>(), v_norm);
 }
 
-// The default rate design is the scaled certificate's (θ = 54.41); at 1 kHz its certified ultimate velocity error,
-// 10.02 rad/s, exceeds the default tolerance (min V = 10), where the tight certificate's θ = 65.67 gives 6.97: the
-// tight one is used, and a note says why.
+// The default rate design is the scaled certificate's (θ = 33.03); at 1 kHz its certified ultimate velocity error is
+// 9.484 rad/s, within the default tolerance (min V = 10). Below that, at a tolerance of 8, the tight certificate's
+// θ = 65.67 gives 6.97: the tight one is used, and a note says why.
 TEST(DeploymentApps, TheRateDesignWithinTheToleranceIsPreferred) {
-  const AppRun rate = run("design-gains", kDeployment + " --json -");
+  const AppRun by_default = run("design-gains", kDeployment + " --json -");
+  ASSERT_EQ(by_default.exit_code, 0) << by_default.err;
+  const nlohmann::json d = nlohmann::json::parse(by_default.out);
+  EXPECT_EQ(d["certificate"], "scaled");
+  EXPECT_NEAR(d["deployment"]["ultimate_velocity_error_norm"].get<double>(), 9.484, 0.001);  // docs/theory.md
+  const AppRun rate = run("design-gains", kDeployment + " --velocity-error-tolerance 8 --json -");
   ASSERT_EQ(rate.exit_code, 0) << rate.err;
   const nlohmann::json j = nlohmann::json::parse(rate.out);
   EXPECT_EQ(j["certificate"], "tight");
   EXPECT_NEAR(j["design"]["theta"].get<double>(), 65.67, 0.01);
   EXPECT_NEAR(j["deployment"]["ultimate_velocity_error_norm"].get<double>(), 6.974, 0.001);  // docs/theory.md
-  EXPECT_NE(j["notes"].dump().find("the scaled certificate's θ = 54.4"), std::string::npos) << j["notes"].dump();
+  EXPECT_NE(j["notes"].dump().find("the scaled certificate's θ = 33.0"), std::string::npos) << j["notes"].dump();
   // Named, the scaled certificate is what is asked for: refused, naming the limit.
-  const AppRun scaled = run("design-gains", kDeployment + " --certificate scaled");
+  const AppRun scaled = run("design-gains", kDeployment + " --velocity-error-tolerance 8 --certificate scaled");
   EXPECT_EQ(scaled.exit_code, 1);
   EXPECT_NE(scaled.err.find("exceeds the tolerance"), std::string::npos) << scaled.err;
 }
 
 TEST(DeploymentApps, APeriodAboveTheLimitOrATolerancePastReachIsRefused) {
-  // At 1 kHz no rate design certifies 5 rad/s (tight 6.97, scaled 10.02): exit 1, naming the limit.
+  // At 1 kHz no rate design certifies 5 rad/s (tight 6.97, scaled 9.48): exit 1, naming the limit.
   const std::string header = ::testing::TempDir() + "/obsgain_refused_gains.hpp";
   std::remove(header.c_str());
   const AppRun rate = run("design-gains", kDeployment + " --velocity-error-tolerance 5 --export-header " + header);
@@ -530,7 +535,7 @@ TEST(PolytopicApps, FallsBackToTheNormBoundCertificateAtItsOwnShapeAndSaysWhy) {
   // The tight certificate's best α (the search's start), which the scaled certificate's differs from (L_T < L_joint).
   EXPECT_NE(warnings.find("not 1.29289, chosen for the polytopic certificate"), std::string::npos) << warnings;
   EXPECT_DOUBLE_EQ(f["design"]["alpha"].get<double>(), a["design"]["alpha"].get<double>());
-  EXPECT_NEAR(a["design"]["alpha"].get<double>(), 1.29682, 1e-5);
+  EXPECT_NEAR(a["design"]["alpha"].get<double>(), 1.29702, 1e-5);
   EXPECT_DOUBLE_EQ(f["design"]["theta"].get<double>(), a["design"]["theta"].get<double>());
 }
 

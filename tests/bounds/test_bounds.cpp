@@ -88,3 +88,26 @@ TEST(Bounds, FrictionEntersBothLipschitzConstants) {
 }
 
 }  // namespace
+
+namespace {
+
+// A rotated nilpotent Φ = a u vᵀ (u ⊥ v): ||T Φ T⁻¹|| = a ||T u|| ||T⁻ᵀ v|| >= a / cond(T), attained by T = D Rᵀ. No
+// diagonal T helps here (its minimum is a, at T = I); the best full T with cond(T) <= κ reaches a / κ exactly.
+TEST(SimilarityScaling, ReachesTheAnalyticMinimumWhereNoDiagonalScalingHelps) {
+  const double a = 4.0, kappa = 30.0;
+  const Eigen::Vector2d u(std::sqrt(0.5), std::sqrt(0.5)), v(-std::sqrt(0.5), std::sqrt(0.5));
+  const Eigen::MatrixXd Phi = a * u * v.transpose();
+  const Eigen::VectorXd t = obsgain::best_diagonal_scaling({Phi});
+  EXPECT_NEAR(obsgain::spectral_norm(t.asDiagonal() * Phi * t.cwiseInverse().asDiagonal()), a, 1e-3 * a);
+  const Eigen::MatrixXd T = obsgain::best_similarity({Phi}, kappa);
+  EXPECT_EQ(T(0, 0), 1.0);
+  EXPECT_EQ(T(1, 0), 0.0);  // upper triangular
+  EXPECT_LE(obsgain::condition_number(T), kappa * (1.0 + 1e-6));
+  EXPECT_NEAR(obsgain::spectral_norm(T * Phi * T.inverse()), a / kappa, 1e-3 * a);
+  // A normal matrix is not improved by any similarity: ||T Φ T⁻¹|| >= ρ(Φ) = ||Φ||.
+  const Eigen::MatrixXd symmetric = (Eigen::Matrix2d() << 2.0, 1.0, 1.0, -1.0).finished();
+  const Eigen::MatrixXd S = obsgain::best_similarity({symmetric}, kappa);
+  EXPECT_NEAR(obsgain::spectral_norm(S * symmetric * S.inverse()), obsgain::spectral_norm(symmetric), 1e-3);
+}
+
+}  // namespace

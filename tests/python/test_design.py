@@ -20,9 +20,9 @@ def without_timings(value):
 def test_pendubot_equals_the_command_line(design):
     cli = app_json("design-gains", "--robot", "pendubot", "--gamma", "1.27")
     assert without_timings(design.data) == without_timings(cli)
-    # The paper's Pendubot: θ* 54.39 for γ = 1.27 with diagonal scaling, the default where it is better (65.65
+    # The paper's Pendubot: θ* 33.01 for γ = 1.27 with similarity scaling, the default where it is better (65.65
     # without; docs/theory.md), and the typed accessors read the same numbers.
-    assert design.theta == cli["design"]["theta"] == pytest.approx(54.41, abs=0.01)
+    assert design.theta == cli["design"]["theta"] == pytest.approx(33.03, abs=0.01)
     assert design.k2 == cli["design"]["k2"] and design.k == cli["design"]["k"]
     assert np.array_equal(design.P, np.array(cli["design"]["P"]))
     assert design.meets_request and design.proven and design.certificate == "scaled"

@@ -3,7 +3,8 @@
 //   B       = sup_{q, v ∈ V̄} ||∂A/∂v(q, v)||
 //   L_paper = M0 (B + ||F||)                                   (the paper's Lipschitz constant)
 //   L_joint = sup_{q, w ∈ V̄, D} ||M(q)⁻¹ (J(q, w) D + F)||      (docs/theory.md, never above L_paper)
-//   L_T     = sup ||T M(q)⁻¹ (J(q, w) D + F) T⁻¹||, T = diag(t)   (diagonal scaling, docs/theory.md)
+//   L_T     = sup ||T M(q)⁻¹ (J(q, w) D + F) T⁻¹||   (similarity scaling: T full up to three joints, else
+//                                                        diagonal; docs/theory.md)
 // v (and D) enter through vertices only (the norms are convex in them), so numerical search runs over q:
 // NLopt's DIRECT-L globally, then Ipopt polishes from the best points. Both values are reported.
 #pragma once
@@ -20,14 +21,18 @@ struct BoundOptions {
   int global_evaluations_per_dimension = 1500;  // DIRECT-L budget per searched joint
   int polish_starts = 3;                        // Ipopt starts: the global argmax plus the best sample points
   int samples_per_dimension = 64;               // sample points that seed the extra polish starts
-  // Diagonal scaling: the T that minimises L_T over the configurations the searches found worst is kept when its
+  // Similarity scaling: the T that minimises L_T over the configurations the searches found worst is kept when its
   // estimate is at least this fraction below L_joint's (its certified search then shares L_joint's budget).
   // Up to scaling_max_dof joints (the certified search's limit: beyond it every round of the search is long and
-  // nothing is proven).
-  bool diagonal_scaling = true;
+  // nothing is proven). T is a full matrix up to full_scaling_max_dof joints: D does not commute with it, so its
+  // proof bounds every saturation pattern apart (2ⁿ per velocity vertex); a diagonal T commutes with D, and one
+  // bound covers them all (docs/theory.md, "Similarity scaling").
+  bool diagonal_scaling = true;  // false: no scaling is searched (full or diagonal)
   double scaling_min_gain = 0.05;
   int scaling_rounds = 4;  // find T on the worst configurations, search L_T, add its argmax, again
   int scaling_max_dof = 7;
+  int full_scaling_max_dof = 3;
+  double full_scaling_max_condition = 30.0;  // cond(T) <= it (the envelope constant k grows by cond(T))
 };
 
 // One supremum over (q, vertex): where it sits and how each optimiser found it.
@@ -59,8 +64,9 @@ struct BoundReport {
   bool certified = false;  // the values are the certified brackets' upper ends
   const char* method() const { return certified ? "certified" : "numeric"; }
   BoundBracket M0_bracket, B_bracket, L_joint_bracket;
-  // Diagonal scaling, when it was kept (scaling empty otherwise): T = diag(scaling), scaling(0) = 1, and L_T.
-  Eigen::VectorXd scaling;
+  // Similarity scaling, when it was kept (scaling empty otherwise): T (n x n; upper triangular, or diagonal with
+  // T(0, 0) = 1) and L_T = sup ||T Φ T⁻¹|| (L_scaled).
+  Eigen::MatrixXd scaling;
   BoundMaximum L_scaled;
   BoundBracket L_scaled_bracket;
   double wall_seconds = 0.0;
@@ -74,21 +80,26 @@ BoundReport compute_bounds(const Model& model, const Eigen::VectorXd& velocity_b
 // The pieces the searches evaluate, exposed for tests and cross-checks on grids.
 double inverse_inertia_norm(const Model& model, const Eigen::VectorXd& q);  // ||M(q)⁻¹||
 double coriolis_jacobian_norm(const Model& model, const Eigen::VectorXd& q, const Eigen::VectorXd& w);  // ||J(q, w)||
-// ||T M⁻¹(J D + F) T⁻¹|| with T = diag(scaling) (empty: T = I, ||M⁻¹(J D + F)||).
+// ||T M⁻¹(J D + F) T⁻¹|| with T = scaling, n x n (empty: T = I, ||M⁻¹(J D + F)||).
 double joint_lipschitz_norm(const Model& model, const Eigen::VectorXd& q, const Eigen::VectorXd& w,
-                            const Eigen::VectorXd& saturation_pattern, const Eigen::VectorXd& scaling = {});
+                            const Eigen::VectorXd& saturation_pattern, const Eigen::MatrixXd& scaling = {});
 
 // The objectives at one configuration, maximised over their discrete choices (what the searches and the
 // certified branch and bound's attained values evaluate): max over vertices w of ||J(q, w)||, and max over
-// vertices w and saturation patterns D of ||T M⁻¹(J D + F) T⁻¹|| (scaling empty: T = I).
+// vertices w and saturation patterns D of ||S M⁻¹(J D + F) T⁻¹|| (scaling empty: T = I).
 double max_coriolis_jacobian_norm(const Model& model, const Eigen::VectorXd& q, const Eigen::VectorXd& velocity_bounds);
 double max_joint_lipschitz_norm(const Model& model, const Eigen::VectorXd& q, const Eigen::VectorXd& velocity_bounds,
-                                const Eigen::VectorXd& scaling = {});
+                                const Eigen::MatrixXd& scaling = {});
 
 // The diagonal T (scaling(0) = 1) that minimises max ||T Φ T⁻¹|| over the matrices given: the largest singular value
-// of e^S Φ e^-S is convex in the diagonal S (docs/theory.md, "Diagonal scaling"), so a local search from T = I
+// of e^X Φ e^-X is convex in the diagonal X (docs/theory.md, "Similarity scaling"), so a local search from T = I
 // finds the minimum.
 Eigen::VectorXd best_diagonal_scaling(const std::vector<Eigen::MatrixXd>& matrices);
+
+// The upper triangular T with cond(T) <= max_condition that minimises max ||T Φ T⁻¹|| over the matrices given:
+// with W = TᵀT, ||T Φ T⁻¹|| <= t iff Φᵀ W Φ ≼ t² W, linear in W for each t, so the smallest t is a bisection of
+// semidefinite feasibility problems (numerics/sdp), a global minimum (docs/theory.md, "Similarity scaling").
+Eigen::MatrixXd best_similarity(const std::vector<Eigen::MatrixXd>& matrices, double max_condition);
 
 // The 2^n vertices of the box with half-widths V, one per column.
 Eigen::MatrixXd box_vertices(const Eigen::VectorXd& velocity_bounds);

@@ -30,22 +30,24 @@ struct BoxCosts {
 };
 BoxCosts box_costs(int n, int symbols, bool frictionless);
 
-// A diagonal similarity T = diag(t) for L_T = sup ||T Φ T⁻¹|| (docs/theory.md, "Diagonal scaling"). The forms are
-// scaled to T X S, S = diag(s), s_k = 1/t_k rounded (each product's rounding bounded by the forms), and
-// ||T X T⁻¹|| = ||T X S · S⁻¹T⁻¹|| <= ||T X S|| · restore.
-struct DiagonalScaling {
-  Eigen::VectorXd rows, columns;  // t and s
-  double restore = 1.0;           // max_k 1 / (s_k t_k), rounded up
-  double stretch = 1.0;           // max_i t_i · max_k s_k, rounded up: ||T X S|| <= stretch ||X||
+// A similarity T for L_T = sup ||T Φ T⁻¹|| (docs/theory.md, "Similarity scaling"). The forms are scaled to T X Y,
+// Y ≈ T⁻¹ computed in double (each product's rounding bounded by the forms), and
+// ||T X T⁻¹|| = ||T X Y · (T Y)⁻¹|| <= ||T X Y|| · restore. A diagonal T = diag(t) scales the forms entry by entry,
+// Y = diag(s) with s_k = 1/t_k rounded.
+struct Similarity {
+  Eigen::MatrixXd rows, columns;  // T and Y
+  bool diagonal = true;
+  double restore = 1.0;           // ||(T Y)⁻¹|| rounded up: max_k 1 / (s_k t_k) when diagonal, else 1 / (1 - ||T Y - I||)
+  double stretch = 1.0;           // ||T|| ||Y||, rounded up: ||T X Y|| <= stretch ||X||
 };
-DiagonalScaling diagonal_scaling(const Eigen::VectorXd& t);
+Similarity similarity(const Eigen::MatrixXd& T);
 
 class BoxBounds {
  public:
-  // Keeps references to the model and the search: they must outlive it. `scaling` (non-empty): joint_lipschitz
-  // bounds L_T for T = diag(scaling) instead of L_joint.
+  // Keeps references to the model and the search: they must outlive it. `scaling` (non-empty, n x n): joint_lipschitz
+  // bounds L_T for T = scaling instead of L_joint.
   BoxBounds(const Model& model, const JointSearch& search, const Eigen::VectorXd& velocity_bounds,
-            const Eigen::VectorXd& scaling = {});
+            const Eigen::MatrixXd& scaling = {});
 
   // `lower`: a value attained elsewhere; a choice whose bound cannot exceed it is not refined.
   BoxBound inverse_inertia(const std::vector<Interval>& box) const;
@@ -64,7 +66,7 @@ class BoxBounds {
   unsigned count_, half_;
   bool frictionless_;
   double inertia_floor_;  // λmin(M(q)) >= it for every q (bounds/inertia_floor.hpp)
-  std::optional<DiagonalScaling> scaling_;
+  std::optional<Similarity> scaling_;
 };
 
 }  // namespace obsgain

@@ -39,7 +39,7 @@ struct CertifiedOptions {
 
 struct CertifiedBounds {
   BoundBracket M0, B, L_joint;
-  std::optional<BoundBracket> L_scaled;  // when the numeric report kept a diagonal scaling
+  std::optional<BoundBracket> L_scaled;  // when the numeric report kept a similarity scaling
 };
 
 // Why a model cannot be certified, or empty when it can.
@@ -65,9 +65,9 @@ std::optional<BoundBracket> certify_position_sensitivity(const Model& model, con
 BoundBracket journaled_search(const CertifiedOptions& options, const std::string& request, BranchAndBoundOptions search,
                               const std::function<BoundBracket(const BranchAndBoundOptions&)>& run);
 // The request a search answers, for its checkpoint: the model (name and file fingerprint), the boxes, the gap and the
-// budget, and `extra` (the acceleration box of C_q).
+// budget, and `extra` (the acceleration box of C_q, the scaling T of L_T; its entries in order).
 std::string search_request(const Model& model, const Eigen::VectorXd& velocity_bounds, const CertifiedOptions& options,
-                           const Eigen::VectorXd& extra = {});
+                           const Eigen::MatrixXd& extra = {});
 
 // Replaces the report's M0, B, L_joint (and L_paper) by the brackets' upper ends: θ* then rests on
 // provable bounds.

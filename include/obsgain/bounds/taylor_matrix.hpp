@@ -61,6 +61,10 @@ void scaled_sum(const TaylorMatrix& X, const Eigen::VectorXd& d, const TaylorMat
 // once"). `frobenius`: X.frobenius_upper() + Y.frobenius_upper(), which bounds the sum's rounding.
 TaylorMatrix pattern_envelope(const TaylorMatrix& X, const TaylorMatrix& Y, double frobenius);
 
+// L X(ε) R for double matrices L and R (empty: the identity), every product's rounding and the remainder carried in
+// norm (||L Δ R|| <= ||L||_F ||Δ|| ||R||_F): the similarity S X S⁻¹ of the forms (bounds/box_bounds.hpp).
+TaylorMatrix sandwiched(const Eigen::MatrixXd& L, const TaylorMatrix& X, const Eigen::MatrixXd& R);
+
 // An upper bound of ||Σ_j w_j X_j D + R|| for every |w_j| <= V_j and diagonal D in [0, 1]ⁿ at once, from entry
 // moduli: Σ_j V_j |X_j| + |R| (each over the box) in Frobenius norm. No enumeration of vertices or patterns: the
 // cheap test that a box cannot beat a value attained elsewhere.

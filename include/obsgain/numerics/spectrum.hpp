@@ -32,6 +32,10 @@ struct ComplexSchurForm {
 };
 ComplexSchurForm complex_schur(const Eigen::MatrixXcd& H);
 
+// cond(T) = σmax(T) / σmin(T) of an invertible T: max |t_ii| / min |t_ii| for a diagonal T, else from the
+// eigenvalues of TᵀT, padded by kEigenPad so that it is not below the true value.
+double condition_number(const Eigen::MatrixXd& T);
+
 double largest_eigenvalue_upper(const Eigen::MatrixXd& S);
 double smallest_eigenvalue_lower(const Eigen::MatrixXd& S);
 // ||B||₂, from the symmetric dilation [[0, B], [Bᵀ, 0]].

@@ -20,6 +20,8 @@ std::string to_json_text(const VerificationReport& report);
 
 // "(1, 2.5)": vectors in the human reports.
 std::string format_vector(const Eigen::VectorXd& v);
+// A similarity scaling T as printed: diag(t1, ..., tn) when diagonal, else its rows [[...], ...].
+std::string format_scaling(const Eigen::MatrixXd& T);
 
 // The paper and tight certificates side by side, row by row, the scaled one when the bounds kept a diagonal scaling,
 // and the polytopic one when it was asked for (the text and HTML reports both show these).

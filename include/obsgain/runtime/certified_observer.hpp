@@ -37,7 +37,7 @@ struct CertifiedObserver {
 
 // P₂ ⊗ I_n in the (positions, velocities) ordering: [[p11 I, p12 I], [p21 I, p22 I]].
 Eigen::MatrixXd per_joint_matrix(const Eigen::Matrix2d& P2, int dof);
-// P₂ ⊗ T²: the per-joint certificate in the coordinates (T e_q, T e_v), T = diag(scaling), in original coordinates.
-Eigen::MatrixXd scaled_per_joint_matrix(const Eigen::Matrix2d& P2, const Eigen::VectorXd& scaling);
+// P₂ ⊗ TᵀT: the per-joint certificate in the coordinates (T e_q, T e_v), in original coordinates.
+Eigen::MatrixXd scaled_per_joint_matrix(const Eigen::Matrix2d& P2, const Eigen::MatrixXd& scaling);
 
 }  // namespace obsgain
