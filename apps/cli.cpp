@@ -94,9 +94,9 @@ void add_certificate_options(CLI::App& app, DesignArguments& a) {
   app.add_option("--L", a.L, "override the Lipschitz constant (e.g. the paper's 54.01)")
       ->type_name("NUMBER");
   app.add_option("--certificate", a.certificate,
-                 "tight (bounded-real lemma), scaled (the same in diagonally scaled coordinates), paper (Theorem 1) or "
+                 "tight (bounded-real lemma), scaled (the same in the coordinates of a similarity T), paper (Theorem 1) or "
                  "polytopic (one full P over a proven polytope of the perturbation, SDP; falls back when its check "
-                 "fails). Default: scaled where the bounds kept a diagonal scaling with a smaller L, else tight")
+                 "fails). Default: scaled where the bounds kept a similarity scaling with a smaller L, else tight")
       ->check(CLI::IsMember({"tight", "scaled", "paper", "polytopic"}))
       ->type_name("tight|scaled|paper|polytopic");
   app.add_option("--polytope-cells", a.polytope_cells,

@@ -114,7 +114,7 @@ void bind_verdict(py::class_<PyDesign>& c) {
            for (const auto& [name, bracket] : py::dict(bounds["brackets"]))
              brackets[name] = py::make_tuple(bracket["lower"], bracket["upper"]);
          return brackets;
-       }, "The certified brackets {name: (attained, proven upper)} of M0, B, L_joint and, with diagonal scaling, L_scaled "
+       }, "The certified brackets {name: (attained, proven upper)} of M0, B, L_joint and, with similarity scaling, L_scaled "
          "(empty for numeric bounds).")
       .def_property_readonly("data", &data, "The design's JSON document as a dict (every number: bounds, brackets, "
                                             "both certificates, the deployment).");

@@ -394,7 +394,7 @@ BoundReport design_bounds(const Model& model, const Eigen::VectorXd& V, const De
     if (options.progress) options.progress(text);
   };
   phase(fmt::format("bounds: numeric search over {} joints (NLopt DIRECT-L, then Ipopt)", configuration_joints(model).size()));
-  // A diagonal scaling serves the scaled certificate only (the polytopic one falls back to it): it is not searched
+  // A similarity scaling serves the scaled certificate only (the polytopic one falls back to it): it is not searched
   // when another certificate is named, or when the certificate rests on L_paper or the user's L.
   BoundOptions bound_options = options.bounds;
   const bool scalable_request = !options.L_override && options.lipschitz == LipschitzKind::joint &&

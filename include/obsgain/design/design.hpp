@@ -28,7 +28,7 @@ struct DesignOptions {
   bool optimize_shape = false;  // β = 1, best α for the chosen certificate (docs/theory.md, "Shape optimisation")
   LipschitzKind lipschitz = LipschitzKind::joint;
   std::optional<double> L_override;  // e.g. the paper's 54.01
-  // Unset: the tight certificate, or the scaled one where the bounds kept a diagonal scaling whose proven L_T is below
+  // Unset: the tight certificate, or the scaled one where the bounds kept a similarity scaling whose proven L_T is below
   // L_joint (the same bounded-real lemma on a smaller L: a smaller θ for a target, a larger rate at a θ).
   std::optional<CertificateKind> certificate;
   // The tight certificate's rate is a supremum; its matrix P is computed at γ_sup (1 - rate_margin), which
@@ -108,7 +108,7 @@ struct Design {
   std::optional<double> target_gamma;
   double rate_margin = 0.0;
   CertificateSummary paper, tight;
-  std::optional<CertificateSummary> scaled;     // when the bounds kept a diagonal scaling (bounds.scaling) for L_joint
+  std::optional<CertificateSummary> scaled;     // when the bounds kept a similarity scaling (bounds.scaling) for L_joint
   std::optional<CertificateSummary> polytopic;  // --certificate polytopic: its result, even when it fell back
   std::optional<PolytopeSummary> polytope;
   std::vector<std::string> notes;     // what loading the model (chain, lumped bodies, armature) and the search decided

@@ -23,7 +23,7 @@ std::string format_vector(const Eigen::VectorXd& v);
 // A similarity scaling T as printed: diag(t1, ..., tn) when diagonal, else its rows [[...], ...].
 std::string format_scaling(const Eigen::MatrixXd& T);
 
-// The paper and tight certificates side by side, row by row, the scaled one when the bounds kept a diagonal scaling,
+// The paper and tight certificates side by side, row by row, the scaled one when the bounds kept a similarity scaling,
 // and the polytopic one when it was asked for (the text and HTML reports both show these).
 struct ComparisonRow {
   std::string label;

@@ -30,7 +30,7 @@ struct BoundCurvePoint {
 
 struct RateCurvePoint {
   double theta, paper_gamma, tight_gamma;
-  double scaled_gamma;     // the scaled certificate's rate where the bounds kept a diagonal scaling; else NaN
+  double scaled_gamma;     // the scaled certificate's rate where the bounds kept a similarity scaling; else NaN
   double polytopic_gamma;  // the SDP's rate (an estimate) where the design is polytopic, on a coarser grid; else NaN
 };
 
