@@ -300,7 +300,7 @@ void add_monte_carlo_options(CLI::App& app, MonteCarloArguments& a) {
       ->type_name("NUMBER");
   app.add_option("--atol", a.atol, "integrator absolute tolerance")->capture_default_str()
       ->type_name("NUMBER");
-  app.add_option("--step-budget", a.step_budget,
+  a.step_budget_option = app.add_option("--step-budget", a.step_budget,
                  "integration steps the run may take, estimated before it starts (default 5e7, minutes on two cores); "
                  "past it no trial runs and the message says what would help")
       ->type_name("STEPS");
@@ -333,7 +333,7 @@ MonteCarloOptions to_monte_carlo_options(const MonteCarloArguments& a, const Des
   o.simulation.horizon = parse_number("horizon", a.horizon);
   o.simulation.rtol = parse_number("rtol", a.rtol);
   o.simulation.atol = parse_number("atol", a.atol);
-  if (!a.step_budget.empty()) o.step_budget = parse_number("step-budget", a.step_budget);
+  if (a.step_budget_option && a.step_budget_option->count() > 0) o.step_budget = parse_number("step-budget", a.step_budget);
   o.scenario = a.scenario == "paper" ? Scenario::paper : Scenario::random;
   o.initial_errors = a.initial_errors == "practical" ? InitialErrors::practical
                      : a.initial_errors == "global"  ? InitialErrors::global

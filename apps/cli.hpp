@@ -45,7 +45,8 @@ struct MonteCarloArguments {
   std::string design_file;
   std::string trials = "1000", seed = "1", horizon = "1", rtol = "1e-8", atol = "1e-10";
   std::string scenario = "random", initial_errors = "both";
-  std::string step_budget;  // empty: MonteCarloOptions' default
+  std::string step_budget;  // not given: MonteCarloOptions' default
+  const CLI::Option* step_budget_option = nullptr;
 };
 
 void add_monte_carlo_options(CLI::App& app, MonteCarloArguments& arguments);

@@ -108,6 +108,8 @@ TEST(DesignGainsApp, RefusesValuesOutsideTheAdmissibleRanges) {
   expect_refused("--theta 200 --rtol 2", "--rtol = 2 must lie in", "monte-carlo");
   expect_refused("--theta 200 --horizon 1e9", "--horizon = 1000000000 must lie in", "monte-carlo");
   expect_refused("--theta 200 --threads 10000", "--threads = 10000", "monte-carlo");
+  expect_refused("--theta 200 --step-budget 0", "--step-budget = 0 must be at least 1", "monte-carlo");
+  expect_refused("--theta 200 --step-budget \"\"", "step-budget = '' is not a decimal number", "monte-carlo");
 }
 
 // A design file fixes the robot and the gains: design options beside it, or a model file changed since the
