@@ -548,4 +548,29 @@ PolytopeCell BoxBounds::perturbation_cell(const std::vector<Interval>& box) cons
   return cell;
 }
 
+
+PerturbationForms BoxBounds::perturbation_forms(const std::vector<Interval>& box) const {
+  const BoxForms d = box_forms(model_, search_, box, true);
+  PerturbationForms forms;
+  forms.costs = box_costs(d.n, d.symbols, frictionless_);
+  const TaylorInverse inverse_M = inverse(d.M, d.n, d.symbols);
+  const std::vector<TaylorMatrix> J = unit_jacobians(d);
+  weigh_sides(linear_combination(J, velocity_bounds_, frobenius_uppers(J)), d, forms.split_weight);
+  if (!inverse_M.proven) return forms;
+  const LipschitzTerms t = lipschitz_terms(model_, d, J, velocity_bounds_, inverse_M);
+  weigh_sides(linear_combination(t.A, velocity_bounds_, frobenius_uppers(t.A)), d, forms.split_weight);
+  const UpwardRounding upward;
+  // ||[F, J(w)]|| <= ||F||_F + ||Σ_j V_j |J_j|||_F.
+  const std::vector<Taylor> none(static_cast<std::size_t>(d.n * d.n), Taylor(0.0));
+  const double inputs =
+      (Interval(every_choice_upper(J, velocity_bounds_, taylor_matrix(none.data(), d.n, d.n, d.symbols))) +
+       Interval(model_.friction.norm() * (1.0 + 1e-13)))
+          .upper();
+  forms.tail = (Interval(inverse_M.tail) * Interval(inputs)).upper();
+  forms.A = t.A;
+  forms.R = t.R;
+  forms.proven = true;
+  return forms;
+}
+
 }  // namespace obsgain

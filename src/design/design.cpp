@@ -116,6 +116,18 @@ CertificateSummary tight_summary(const Design& d, std::optional<double> target, 
   return s;
 }
 
+// The observer of a polytopic summary takes the proven certificate's P, k and rate.
+void adopt(CertificateSummary& s, const PolytopicCertificate& cert) {
+  s.status = cert.status;
+  CertifiedObserver& o = s.observer;
+  if (cert.exists) {
+    o.P = cert.P;
+    o.k = cert.k;
+    o.gamma = cert.gamma;
+  }
+  o.certified = cert.exists && o.gamma > 0.0;
+}
+
 // The polytopic certificate at the target's smallest θ, or at the given θ for its largest rate (bisections on the SDP
 // solver's answer); then the interval check of the P found.
 CertificateSummary polytopic_summary(const Design& d, const PerturbationPolytope& polytope, const DesignOptions& options) {
@@ -139,13 +151,7 @@ CertificateSummary polytopic_summary(const Design& d, const PerturbationPolytope
                 target ? o.gamma : std::max(po.floor_lowest_rate_fraction * o.gamma, options.sampled_floor->lowest_rate),
                 o.gamma, options.sampled_floor->model_gain, po)
           : polytopic_certificate(polytope, o.k1, o.k2, o.gamma, po);
-  s.status = cert.status;
-  if (cert.exists) {
-    o.P = cert.P;
-    o.k = cert.k;
-    o.gamma = cert.gamma;
-  }
-  o.certified = cert.exists && o.gamma > 0.0;
+  adopt(s, cert);
   return s;
 }
 
@@ -214,6 +220,68 @@ void certify_polytopic(Design& d, const PerturbationPolytope& polytope, const De
     d.warnings.push_back(fmt::format("the polytopic certificate failed ({}): the {} certificate is used",
                                      d.polytopic ? d.polytopic->status : "no proven polytope: " + d.polytope->unproven,
                                      to_string(d.certificate)));
+  }
+}
+
+// The configurations where the bounds' searches found their maxima: the search's first samples.
+std::vector<Eigen::VectorXd> bound_maximisers(const Design& d) {
+  std::vector<Eigen::VectorXd> seeds;
+  for (const BoundMaximum* m : {&d.bounds.L_joint, &d.bounds.M0, &d.bounds.B})
+    if (m->q.size() == d.dof) seeds.push_back(m->q);
+  return seeds;
+}
+
+// Above two joints: the smallest θ the SDP finds a P for on the samples (from the norm-bound certificate's), or the
+// largest rate at the given θ; then the proof, retried at a θ one rate margin higher (or a rate one margin lower)
+// while it fails (docs/theory.md, "The polytopic certificate by search").
+CertificateSummary searched_polytopic_summary(const Design& d, PolytopicSearch& search, const DesignOptions& options) {
+  const double m = options.polytopic_search.rate_margin;
+  const std::optional<double> target = options.gamma;
+  const CertificateSummary& norm = better_norm_bound(d) == CertificateKind::scaled && d.scaled ? *d.scaled : d.tight;
+  CertificateSummary s;
+  const double from = target && std::isfinite(norm.theta_star) && norm.theta_star > 0.0 ? norm.theta_star : 1.0;
+  s.theta_star = target ? search.theta_star(d.alpha, d.beta, *target, from) : kNaN;
+  s.observer = observer_at(d, CertificateKind::polytopic, target ? s.theta_star : *options.theta);
+  if (!std::isfinite(s.observer.theta)) {
+    s.status = "the SDP solver found no P at any gain up to 1e8";
+    return s;
+  }
+  if (!target) s.rate = search.rate(s.observer.k1, s.observer.k2);
+  PolytopicCertificate cert;
+  for (int retry = 0; retry <= options.polytopic_search.retries && !cert.exists; ++retry) {
+    if (target) s.observer = observer_at(d, CertificateKind::polytopic, s.theta_star * std::pow(1.0 + m, retry));
+    CertifiedObserver& o = s.observer;
+    o.gamma = target ? *target : s.rate * std::pow(1.0 - m, retry + 1);
+    if (!(o.gamma > 0.0)) break;
+    if (target) s.rate = *target;
+    cert = search.certificate(o.k1, o.k2, o.gamma);
+  }
+  adopt(s, cert);
+  return s;
+}
+
+// --certificate polytopic above two joints: P chosen on samples and proven by branch and bound.
+void certify_polytopic_by_search(Design& d, const Model& model, const DesignOptions& options) {
+  PolytopeSummary summary;
+  summary.method = "search";
+  summary.unproven = certification_unavailable(model);
+  if (summary.unproven.empty()) {
+    PolytopicSearchOptions po = options.polytopic_search;
+    po.threads = options.certified_bounds.threads;
+    po.sdp = options.polytopic.sdp;
+    PolytopicSearch search(model, d.velocity_bounds, bound_maximisers(d), po);
+    d.polytopic = searched_polytopic_summary(d, search, options);
+    const PolytopicSearchReport& r = search.report();
+    summary.samples = r.samples;
+    summary.cuts = r.cuts;
+    summary.proof_boxes = r.proof_boxes;
+    summary.refuted = r.refuted;
+  }
+  d.polytope = summary;
+  if (!d.polytopic || !d.polytopic->observer.certified) {
+    d.certificate = better_norm_bound(d);
+    d.warnings.push_back(fmt::format("the polytopic certificate failed ({}): the {} certificate is used",
+                                     d.polytopic ? d.polytopic->status : summary.unproven, to_string(d.certificate)));
   }
 }
 
@@ -335,14 +403,17 @@ void reshape_for_fall_back(Design& d, const DesignOptions& options) {
 // Both certificates, side by side, and what the selected one proves.
 void certify(Design& d, const Model& model, const BoundReport& bounds, const DesignOptions& options) {
   const auto start = std::chrono::steady_clock::now();
+  const bool polytopic = options.certificate == CertificateKind::polytopic;
+  const bool by_search = polytopic && model.dof() > options.polytope.separate_cells_up_to_dof;
   std::optional<PerturbationPolytope> polytope;
-  if (options.certificate == CertificateKind::polytopic) {
+  if (polytopic && !by_search) {
     polytope = polytope_for(d, model, options);
     if (options.optimize_shape && polytope->proven()) choose_polytopic_shape(d, *polytope, options);
   }
   certify_norm_bound(d, options);
-  if (polytope) {
-    certify_polytopic(d, *polytope, options);
+  if (polytope) certify_polytopic(d, *polytope, options);
+  if (by_search) certify_polytopic_by_search(d, model, options);
+  if (polytopic) {
     if (options.optimize_shape && d.certificate != CertificateKind::polytopic) reshape_for_fall_back(d, options);
     d.polytope->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   }

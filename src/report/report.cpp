@@ -241,9 +241,11 @@ nlohmann::json to_json(const Design& d) {
   if (d.scaled) j["comparison"]["scaled"] = to_json(*d.scaled);
   if (d.polytopic) j["comparison"]["polytopic"] = to_json(*d.polytopic);
   if (d.polytope)
-    j["polytope"] = {{"cells", d.polytope->cells},       {"vertices", d.polytope->vertices},
-                     {"grid", d.polytope->grid},         {"unproven", d.polytope->unproven},
-                     {"seconds", d.polytope->seconds}};
+    j["polytope"] = {{"method", d.polytope->method},       {"cells", d.polytope->cells},
+                     {"vertices", d.polytope->vertices},   {"grid", d.polytope->grid},
+                     {"samples", d.polytope->samples},     {"cuts", d.polytope->cuts},
+                     {"proof_boxes", d.polytope->proof_boxes}, {"refuted", d.polytope->refuted},
+                     {"unproven", d.polytope->unproven},   {"seconds", d.polytope->seconds}};
   j["notes"] = d.notes;
   j["robot"]["armature"] = to_json(d.armature);
   j["robot"]["fingerprint"] = d.robot_fingerprint;
@@ -356,7 +358,13 @@ std::string format_certificates(const Design& d) {
     out << fmt::format("  scaled: T = {}, cond(T) = {:.4g}; L_T = {:.7g} where L_joint = {:.7g}\n",
                        format_scaling(d.bounds.scaling), condition_number(d.bounds.scaling), d.bounds.L_scaled.value,
                        d.L_used);
-  if (d.polytope)
+  if (d.polytope && d.polytope->method == "search")
+    out << fmt::format("  polytopic by search: P chosen on {} sampled configurations ({} LMIs in the SDP), proof by "
+                       "branch and bound over {} boxes{}{}; {:.1f} s\n",
+                       d.polytope->samples, d.polytope->cuts, d.polytope->proof_boxes,
+                       d.polytope->refuted ? fmt::format(", {} refuted P", d.polytope->refuted) : "",
+                       d.polytope->unproven.empty() ? "" : " — not available: " + d.polytope->unproven, d.polytope->seconds);
+  else if (d.polytope)
     out << fmt::format("  polytope: {} cells ({} per searched joint), {} vertices{}; {:.1f} s\n", d.polytope->cells,
                        d.polytope->grid, d.polytope->vertices,
                        d.polytope->unproven.empty() ? "" : " — not proven: " + d.polytope->unproven, d.polytope->seconds);

@@ -7,6 +7,7 @@
 #include "obsgain/bounds/branch_and_bound.hpp"
 #include "obsgain/bounds/joint_search.hpp"
 #include "obsgain/bounds/perturbation_polytope.hpp"
+#include "obsgain/bounds/taylor_matrix.hpp"
 #include "obsgain/model/model.hpp"
 
 #include <Eigen/Dense>
@@ -42,6 +43,19 @@ struct Similarity {
 };
 Similarity similarity(const Eigen::MatrixXd& T);
 
+// Φ's terms over a box, for a proof that keeps them apart (certificate/polytopic_search.hpp): for every q in the box,
+// w in the velocity box and δ = D e_v, Φ e_v = −(A(w) δ + R e_v) − U (J(w) δ + F e_v) with A(w) = Σ_j w_j A_j and
+// ||U|| <= M⁻¹'s tail (bounds/taylor_matrix.hpp).
+struct PerturbationForms {
+  bool proven = false;          // M proven invertible over the box (else nothing below is set but the weights)
+  std::vector<TaylorMatrix> A;  // M⁻¹ J_j
+  TaylorMatrix R;               // M⁻¹ F
+  // ||U [F, J(w)]|| <= tail for every q in the box and w in the velocity box.
+  double tail = 0.0;
+  std::vector<double> split_weight;
+  BoxCosts costs;
+};
+
 class BoxBounds {
  public:
   // Keeps references to the model and the search: they must outlive it. `scaling` (non-empty, n x n): joint_lipschitz
@@ -55,6 +69,7 @@ class BoxBounds {
   BoxBound joint_lipschitz(const std::vector<Interval>& box, double lower) const;
   // Φ over the box as a polytope cell (perturbation_polytope.hpp), without its vertices.
   PolytopeCell perturbation_cell(const std::vector<Interval>& box) const;
+  PerturbationForms perturbation_forms(const std::vector<Interval>& box) const;
 
  private:
   const Model& model_;

@@ -6,6 +6,7 @@
 #include "obsgain/bounds/certified_bounds.hpp"
 #include "obsgain/bounds/perturbation_polytope.hpp"
 #include "obsgain/certificate/polytopic.hpp"
+#include "obsgain/certificate/polytopic_search.hpp"
 #include "obsgain/certificate/lyapunov.hpp"
 #include "obsgain/model/model.hpp"
 #include "obsgain/runtime/certified_observer.hpp"
@@ -46,6 +47,9 @@ struct DesignOptions {
   // search of α around the norm-bound certificate's best α: PolytopicOptions::shape_*).
   PolytopeOptions polytope;
   PolytopicOptions polytopic;
+  // --certificate polytopic above PolytopeOptions::separate_cells_up_to_dof joints: P chosen on sampled
+  // configurations and proven by branch and bound (certificate/polytopic_search.hpp).
+  PolytopicSearchOptions polytopic_search;
   // Set by a sampled deployment (deployment/deployment.hpp): the polytopic certificate then chooses P, and γ up to
   // the rate θ certifies, for the smallest sampled error floor instead of the smallest k (polytopic_floor_certificate).
   struct SampledFloor {
@@ -67,11 +71,14 @@ struct CertificateSummary {
   std::string status;                 // polytopic only: the SDP solver's and the interval check's verdict
 };
 
-// The polytope a polytopic certificate rests on (bounds/perturbation_polytope.hpp).
+// What a polytopic certificate rests on: a grid of cells (bounds/perturbation_polytope.hpp), or, above two joints,
+// sampled configurations and a branch and bound over the joint domain (certificate/polytopic_search.hpp).
 struct PolytopeSummary {
+  std::string method = "grid";  // "grid" or "search"
   int cells = 0, vertices = 0, grid = 0;
+  int samples = 0, cuts = 0, proof_boxes = 0, refuted = 0;  // "search": see PolytopicSearchReport
   std::string unproven;  // why it could not be built, or empty
-  double seconds = 0.0;  // polytope and SDPs
+  double seconds = 0.0;  // polytope and SDPs (and proofs)
 };
 
 struct ShapeReport {
