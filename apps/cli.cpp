@@ -110,6 +110,10 @@ void add_certificate_options(CLI::App& app, DesignArguments& a) {
                  "certified bounds: wall-time budget in seconds for the interval search (default 120; 0: until the "
                  "gap target); the design uses the proven upper ends reached, whatever the gap")
       ->type_name("SECONDS");
+  app.add_option("--proof-budget", a.proof_budget,
+                 "polytopic certificate above two joints: counted work in seconds for the branch and bound that proves "
+                 "the P chosen on samples (default 60); past it the certificate falls back to the norm bound")
+      ->type_name("SECONDS");
   app.add_option("--checkpoint", a.checkpoint,
                  "certified bounds: save the searches to FILE every 5 s, so that a killed job can --resume FILE")
       ->type_name("FILE");
@@ -244,6 +248,7 @@ DesignRequest to_design_request(const DesignArguments& a, const Model& model) {
   if (!a.L.empty()) o.L_override = parse_number("L", a.L);
   if (!a.rate_margin.empty()) o.rate_margin = parse_number("rate-margin", a.rate_margin);
   if (!a.bound_budget.empty()) o.certified_bounds.budget_seconds = parse_number("bound-budget", a.bound_budget);
+  if (!a.proof_budget.empty()) o.polytopic_search.proof_budget = parse_number("proof-budget", a.proof_budget);
   o.certified_bounds.threads = parse_threads(a.threads);
   o.certified_bounds.journal = open_search_journal(a.checkpoint, a.resume);
   if (!a.vmax.empty()) o.velocity_bounds = parse_number_list("vmax", a.vmax);

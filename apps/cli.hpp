@@ -16,7 +16,7 @@ namespace obsgain {
 struct DesignArguments {
   std::string robot = "pendubot";
   std::string base_link, tip_link, actuated, armature, joint_limits;
-  std::string vmax, gamma, theta, alpha, beta, L, rate_margin, bound_budget, checkpoint, resume;
+  std::string vmax, gamma, theta, alpha, beta, L, rate_margin, bound_budget, proof_budget, checkpoint, resume;
   std::string sample_period, encoder_counts, acceleration_bounds, velocity_error_tolerance, latency;
   std::string objective = "rate";
   std::string threads = "0";

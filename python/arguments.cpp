@@ -59,6 +59,7 @@ void take_certificate(py::dict& a, DesignOptions& o) {
   o.polytope.cells = take<int>(a, "polytope_cells").value_or(o.polytope.cells);
   o.bound_method = choice(a, "bounds", {"certified", "numeric"}) == "numeric" ? BoundMethod::numeric : BoundMethod::certified;
   o.certified_bounds.budget_seconds = take<double>(a, "bound_budget").value_or(o.certified_bounds.budget_seconds);
+  o.polytopic_search.proof_budget = take<double>(a, "proof_budget").value_or(o.polytopic_search.proof_budget);
   o.rate_margin = take<double>(a, "rate_margin").value_or(o.rate_margin);
   if (const auto vmax = take<Eigen::VectorXd>(a, "vmax")) {
     if (vmax->size() == 0) throw InputError("--vmax = '' is empty: give a value or leave the option out");

@@ -157,7 +157,7 @@ void bind_design(py::module_& m) {
         "Keywords, as the command line's options (docs/usage.md):\n"
         "  gamma: target rate [1/s] (theta is then the smallest certifying gain), or theta: the gain to evaluate\n"
         "  alpha, beta (default 1), optimize_shape=False\n"
-        "  certificate='tight' | 'paper' | 'polytopic', polytope_cells=32\n"
+        "  certificate='tight' | 'paper' | 'polytopic', polytope_cells=32, proof_budget=60 [s]\n"
         "  lipschitz='joint' | 'paper', L: override the Lipschitz constant\n"
         "  bounds='certified' | 'numeric', bound_budget=120 [s], rate_margin=0.01, vmax: velocity bounds\n"
         "  checkpoint=FILE (save the searches every 5 s) or resume=FILE (continue them)\n"

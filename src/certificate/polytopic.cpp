@@ -218,6 +218,7 @@ Eigen::MatrixXd balanced_P(const Layout& l, const Eigen::VectorXd& y) {
 
 double polytopic_slack(const PerturbationPolytope& polytope, double k1, double k2, double gamma,
                        const PolytopicOptions& options) {
+  if (!polytope.proven()) return kNotFound;
   PolytopicOptions feasibility = options;
   feasibility.sdp.enough = [](const Eigen::VectorXd& y) { return y(y.size() - 1) < 0.0; };
   const Solved s = solve(polytope, k1, k2, gamma, SdpObjective::slack, feasibility);

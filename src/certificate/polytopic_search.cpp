@@ -403,6 +403,8 @@ PolytopicSearch::PolytopicSearch(const Model& model, const Eigen::VectorXd& velo
     : state_(std::make_unique<State>(model, velocity_bounds, seeds, options)) {}
 
 PolytopicSearch::~PolytopicSearch() = default;
+PolytopicSearch::PolytopicSearch(PolytopicSearch&&) noexcept = default;
+PolytopicSearch& PolytopicSearch::operator=(PolytopicSearch&&) noexcept = default;
 
 const PolytopicSearchReport& PolytopicSearch::report() const { return state_->report; }
 

@@ -266,26 +266,35 @@ void certify_polytopic_by_search(Design& d, const Model& model, const DesignOpti
   summary.method = "search";
   summary.unproven = certification_unavailable(model);
   if (summary.unproven.empty()) {
-    PolytopicSearchOptions po = options.polytopic_search;
-    po.threads = options.certified_bounds.threads;
-    po.sdp = options.polytopic.sdp;
-    PolytopicSearch search(model, d.velocity_bounds, bound_maximisers(d), po);
+    PolytopicSearch search = polytopic_search_for(model, d, options);
     d.polytopic = searched_polytopic_summary(d, search, options);
     const PolytopicSearchReport& r = search.report();
     summary.samples = r.samples;
     summary.cuts = r.cuts;
     summary.proof_boxes = r.proof_boxes;
     summary.refuted = r.refuted;
+    summary.proof_work = r.proof_work;
   }
   d.polytope = summary;
   if (!d.polytopic || !d.polytopic->observer.certified) {
     d.certificate = better_norm_bound(d);
-    d.warnings.push_back(fmt::format("the polytopic certificate failed ({}): the {} certificate is used",
-                                     d.polytopic ? d.polytopic->status : summary.unproven, to_string(d.certificate)));
+    d.warnings.push_back(fmt::format(
+        "the polytopic certificate failed ({}): the {} certificate is used{}",
+        d.polytopic ? d.polytopic->status : summary.unproven, to_string(d.certificate),
+        summary.proof_work >= options.polytopic_search.proof_budget ? " (a larger --proof-budget lets the proof go further; on six and more joints it "
+                                     "needs far more than minutes: docs/theory.md)"
+                                   : ""));
   }
 }
 
 }  // namespace
+
+PolytopicSearch polytopic_search_for(const Model& model, const Design& design, const DesignOptions& options) {
+  PolytopicSearchOptions po = options.polytopic_search;
+  po.threads = options.certified_bounds.threads;
+  po.sdp = options.polytopic.sdp;
+  return PolytopicSearch(model, design.velocity_bounds, bound_maximisers(design), po);
+}
 
 const char* to_string(LipschitzKind kind) { return kind == LipschitzKind::paper ? "paper" : "joint"; }
 
@@ -302,6 +311,9 @@ void validate_design_options(const DesignOptions& options) {
   const double budget = options.certified_bounds.budget_seconds;
   if (!std::isfinite(budget) || budget < 0.0 || budget > 1e6)
     throw InputError(fmt::format("--bound-budget = {} must lie in [0, 1e6] seconds (0: until the gap is reached)", budget));
+  const double proof = options.polytopic_search.proof_budget;
+  if (!std::isfinite(proof) || proof <= 0.0 || proof > 1e6)
+    throw InputError(fmt::format("--proof-budget = {} must lie in (0, 1e6] seconds", proof));
   if (options.polytope.cells < 1 || options.polytope.cells > 4096)
     throw InputError(fmt::format("--polytope-cells = {} must lie in [1, 4096]", options.polytope.cells));
   if (!std::isfinite(options.rate_margin) || options.rate_margin <= 0.0 || options.rate_margin >= 0.5)

@@ -244,7 +244,8 @@ nlohmann::json to_json(const Design& d) {
     j["polytope"] = {{"method", d.polytope->method},       {"cells", d.polytope->cells},
                      {"vertices", d.polytope->vertices},   {"grid", d.polytope->grid},
                      {"samples", d.polytope->samples},     {"cuts", d.polytope->cuts},
-                     {"proof_boxes", d.polytope->proof_boxes}, {"refuted", d.polytope->refuted},
+                     {"proof_boxes", d.polytope->proof_boxes}, {"proof_work", d.polytope->proof_work},
+                     {"refuted", d.polytope->refuted},
                      {"unproven", d.polytope->unproven},   {"seconds", d.polytope->seconds}};
   j["notes"] = d.notes;
   j["robot"]["armature"] = to_json(d.armature);

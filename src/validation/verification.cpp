@@ -6,9 +6,11 @@
 
 #include <fmt/format.h>
 
+#include <cmath>
 #include <ctime>
 #include <limits>
 #include <numbers>
+#include <optional>
 
 namespace obsgain {
 
@@ -38,22 +40,32 @@ void bound_curves(const Model& model, const Design& d, const VerificationOptions
 namespace {
 
 // Certified rate against θ for every certificate, around the chosen gain. The polytopic one (a bisection of SDPs
-// per point, at 1 % resolution) on every 25th point only.
+// per point, at 1 % resolution) on every 25th point only: on two joints over the design's polytope, above two by the
+// design's search on sampled configurations (docs/theory.md, "The polytopic certificate by search"); both estimates.
 std::vector<RateCurvePoint> rate_curve(const Model& model, const Design& d, const DesignOptions& options) {
   const double theta = d.selected().observer.theta;
   const bool polytopic = d.certificate == CertificateKind::polytopic;
+  const bool by_search = polytopic && model.dof() > options.polytope.separate_cells_up_to_dof;
   PerturbationPolytope polytope;
   PolytopicOptions coarse = options.polytopic;
   coarse.relative_tolerance = 1e-2;
-  if (polytopic) polytope = perturbation_polytope(model, d.velocity_bounds, options.polytope);
+  if (polytopic && !by_search) polytope = perturbation_polytope(model, d.velocity_bounds, options.polytope);
+  DesignOptions searched = options;
+  searched.polytopic_search.relative_tolerance = 1e-2;
+  std::optional<PolytopicSearch> search;
+  if (by_search) search.emplace(polytopic_search_for(model, d, searched));
+  const auto polytopic_gamma = [&](double k1, double k2) {
+    if (!search) return polytopic_rate(polytope, k1, k2, coarse);
+    const double rate = search->rate(k1, k2);
+    return std::isfinite(rate) ? rate : std::numeric_limits<double>::quiet_NaN();  // no P even for γ = 0
+  };
   std::vector<RateCurvePoint> curve;
   for (int k = 0; k <= 200; ++k) {
     const double t = theta * (0.1 + 2.9 * k / 200.0);
     const double k1 = t * d.alpha, k2 = t * t * d.beta;
     curve.push_back({t, paper_rate(d.lyapunov.S_norm, t, d.L_used), tight_rate(k1, k2, d.L_used),
                      d.scaled ? tight_rate(k1, k2, d.scaled->observer.L) : std::numeric_limits<double>::quiet_NaN(),
-                     polytopic && k % 25 == 0 ? polytopic_rate(polytope, k1, k2, coarse)
-                                              : std::numeric_limits<double>::quiet_NaN()});
+                     polytopic && k % 25 == 0 ? polytopic_gamma(k1, k2) : std::numeric_limits<double>::quiet_NaN()});
   }
   return curve;
 }

@@ -4,6 +4,7 @@
 #include <nlohmann/json.hpp>
 
 #include <array>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -88,6 +89,9 @@ TEST(DesignGainsApp, RefusesValuesOutsideTheAdmissibleRanges) {
   expect_refused("--gamma 1 --vmax \"\"", "--vmax = '' is empty");
   expect_refused("--gamma 1 --vmax 1e300,1e300", "V1 = 1e+300 (--vmax) must lie in");
   expect_refused("--gamma 1 --bound-budget -1", "--bound-budget = -1");
+  expect_refused("--gamma 1 --proof-budget 0", "--proof-budget = 0 must lie in (0, 1e6]");
+  expect_refused("--gamma 1 --proof-budget 1e7", "--proof-budget = 10000000 must lie in");
+  expect_refused("--gamma 1 --proof-budget \"\"", "--proof-budget = '' is empty");
   const std::string directory = ::testing::TempDir() + "/obsgain_directory.json";
   std::filesystem::create_directories(directory);
   expect_refused("--robot " + directory + " --gamma 1", "(not a file)");
@@ -395,6 +399,61 @@ TEST(VerifyBoundsApp, WithoutGnuplotTheReportStillBuildsAndSaysWhy) {
   std::snprintf(line.data(), line.size(), "shape optimised (beta = 1, minimise theta_star): alpha = %.7f",
                 read_json(out + "/report.json")["design"]["alpha"].get<double>());
   EXPECT_NE(html.find(line.data()), std::string::npos) << line.data();
+}
+
+// Above two joints, a proof stopped by --proof-budget falls back to the norm-bound certificate (on arm3 the scaled
+// one) and says what would help; the work it spent is reported, and it is the budget's (counted work: the same
+// number on every run).
+TEST(DesignGainsApp, APolytopicProofPastItsBudgetFallsBackAndNamesTheBudget) {
+  const std::string examples = OBSGAIN_EXAMPLES_DIR;
+  const AppRun r = run("design-gains", "--robot " + examples +
+                                           "/arm3.urdf --gamma 5 --certificate polytopic --proof-budget 0.5 --quiet --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["certificate"], "scaled");
+  EXPECT_TRUE(j["certified"].get<bool>());
+  EXPECT_EQ(j["polytope"]["method"], "search");
+  EXPECT_GE(j["polytope"]["proof_work"].get<double>(), 0.5);
+  EXPECT_LT(j["polytope"]["proof_work"].get<double>(), 5.0);
+  const std::string warnings = j["warnings"].dump();
+  EXPECT_NE(warnings.find("not proven within the proof budget of 0.5 s"), std::string::npos) << warnings;
+  EXPECT_NE(warnings.find("a larger --proof-budget"), std::string::npos) << warnings;
+}
+
+// Above two joints the report's polytopic curve is the design's own search on sampled configurations, an estimate
+// (it was the SDP on a merged polytope that could not be proven, and plotted 512 k1 at every θ). On arm3 at γ = 5
+// the design's sampled θ* is 28.98 (docs/theory.md): the curve crosses the target between its points either side,
+// rises with θ, and lies above the tight certificate's rate wherever the SDP found a P.
+TEST(VerifyBoundsApp, ThreeJointPolytopicCurveIsTheDesignsSearch) {
+  const std::string examples = OBSGAIN_EXAMPLES_DIR;
+  const std::string out = ::testing::TempDir() + "/obsgain_verify_arm3_polytopic";
+  const AppRun r = run("verify-bounds", "--robot " + examples + "/arm3.urdf --gamma 5 --certificate polytopic "
+                                        "--trials 4 --horizon 0.3 --quiet --out " + out);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json report = read_json(out + "/report.json");
+  ASSERT_EQ(report["design"]["certificate"], "polytopic");
+  const double alpha = report["design"]["alpha"].get<double>();
+  std::istringstream csv(read_text(out + "/rate_vs_theta.csv"));
+  std::string line;
+  std::getline(csv, line);
+  ASSERT_EQ(line, "theta,paper_gamma,tight_gamma,polytopic_gamma,scaled_gamma");
+  double below = 0.0, above = 0.0, previous = -1e300;
+  int points = 0;
+  while (std::getline(csv, line)) {
+    double theta = 0.0, paper = 0.0, tight = 0.0, polytopic = 0.0;
+    ASSERT_EQ(std::sscanf(line.c_str(), "%lf,%lf,%lf,%lf", &theta, &paper, &tight, &polytopic), 4) << line;
+    if (std::isnan(polytopic)) continue;
+    ++points;
+    EXPECT_LT(polytopic, 0.5 * alpha * theta) << line;  // the linear part's own rate with Φ = 0
+    EXPECT_GT(polytopic, tight) << line;
+    EXPECT_GT(polytopic, previous) << line;
+    previous = polytopic;
+    if (theta < 28.98 && theta > 24.0) below = polytopic;
+    if (theta > 28.98 && theta < 36.0) above = polytopic;
+  }
+  EXPECT_GE(points, 6);
+  EXPECT_LT(below, 5.0);
+  EXPECT_GT(above, 5.0);
 }
 
 TEST(VerifyBoundsApp, RefusesBadInput) {

@@ -32,6 +32,20 @@ TEST(PolytopicCertificate, LinearErrorDynamicsReachTheSpectralAbscissa) {
   EXPECT_GT(rate, 0.99 * theta / 2);
 }
 
+// A polytope that is not proven holds P to nothing: no rate and no θ*, not the solver's answer to an empty problem
+// (which found a P at every γ up to 512 k1, and was plotted as the polytopic curve above two joints).
+TEST(PolytopicCertificate, AnUnprovenPolytopeGivesNoEstimate) {
+  const double theta = 40.0;
+  obsgain::PerturbationPolytope unproven = scalar_polytope(0.0, 0.0);
+  unproven.unproven = "M is not proven invertible over a cell";
+  EXPECT_TRUE(std::isinf(obsgain::polytopic_slack(unproven, theta, theta * theta, 1.0)));
+  EXPECT_EQ(obsgain::polytopic_rate(unproven, theta, theta * theta), 0.0);
+  EXPECT_TRUE(std::isinf(obsgain::polytopic_theta_star(unproven, 1.0, 1.0, 5.0)));
+  unproven.unproven.clear();
+  unproven.cells.clear();
+  EXPECT_EQ(obsgain::polytopic_rate(unproven, theta, theta * theta), 0.0);
+}
+
 // One scalar uncertainty |Φ| <= L: the S-procedure is lossless, so the SDP's rate is the bounded-real lemma's,
 // computed independently in closed form (certificate.hpp).
 TEST(PolytopicCertificate, ScalarUncertaintyEqualsTheBoundedRealLemma) {

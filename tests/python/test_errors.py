@@ -13,6 +13,7 @@ CASES = [
     (["--gamma", "1", "--vmax", "1,2,3"], lambda r: obsgain.design_gains(r, gamma=1, vmax=[1, 2, 3])),
     (["--gamma", "1", "--polytope-cells", "0"], lambda r: obsgain.design_gains(r, gamma=1, polytope_cells=0)),
     (["--gamma", "1", "--bound-budget", "-2"], lambda r: obsgain.design_gains(r, gamma=1, bound_budget=-2)),
+    (["--gamma", "1", "--proof-budget", "0"], lambda r: obsgain.design_gains(r, gamma=1, proof_budget=0)),
     (["--gamma", "1", "--sample-period", "2", "--encoder-counts", "4096", "--acceleration-bounds", "200"],
      lambda r: obsgain.design_gains(r, gamma=1, sample_period=2, encoder_counts=4096, acceleration_bounds=200)),
     (["--gamma", "1", "--sample-period", "0.001"], lambda r: obsgain.design_gains(r, gamma=1, sample_period=0.001)),

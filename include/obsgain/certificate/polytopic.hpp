@@ -53,6 +53,7 @@ struct PolytopicCertificate {
 };
 
 // Whether the solver finds a P for γ at the gains (k1, k2): the LMIs' largest slack t (an estimate; < 0: found).
+// Never found on a polytope that is not proven (no cells: nothing to hold P to).
 double polytopic_slack(const PerturbationPolytope& polytope, double k1, double k2, double gamma,
                        const PolytopicOptions& options = {});
 // The largest γ the solver finds a P for (an estimate: bisection on the slack's sign). May be <= 0.

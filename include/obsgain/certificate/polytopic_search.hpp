@@ -57,6 +57,8 @@ class PolytopicSearch {
   ~PolytopicSearch();
   PolytopicSearch(const PolytopicSearch&) = delete;
   PolytopicSearch& operator=(const PolytopicSearch&) = delete;
+  PolytopicSearch(PolytopicSearch&&) noexcept;
+  PolytopicSearch& operator=(PolytopicSearch&&) noexcept;
 
   // Whether the SDP finds a P for γ at the gains (k1, k2) that holds at every sample (an estimate).
   bool feasible(double k1, double k2, double gamma);

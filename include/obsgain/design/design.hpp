@@ -77,6 +77,7 @@ struct PolytopeSummary {
   std::string method = "grid";  // "grid" or "search"
   int cells = 0, vertices = 0, grid = 0;
   int samples = 0, cuts = 0, proof_boxes = 0, refuted = 0;  // "search": see PolytopicSearchReport
+  double proof_work = 0.0;                                   // "search": counted work of the proofs (reference s)
   std::string unproven;  // why it could not be built, or empty
   double seconds = 0.0;  // polytope and SDPs (and proofs)
 };
@@ -156,6 +157,10 @@ Eigen::VectorXd requested_velocity_bounds(const Model& model, const DesignOption
 // Why a design does not meet what was asked (the apps exit 1 with this line), or empty: a --gamma request
 // needs the selected certificate to hold, on proven bounds unless the user chose --bounds numeric.
 std::string unmet_request(const Design& design, const DesignOptions& options);
+
+// The polytopic certificate's search above two joints (certificate/polytopic_search.hpp) as the design runs it: its
+// options, the bound search's thread count and SDP settings, and the bounds' maximisers as its first samples.
+PolytopicSearch polytopic_search_for(const Model& model, const Design& design, const DesignOptions& options);
 
 const char* to_string(LipschitzKind kind);
 
