@@ -87,7 +87,7 @@ Eigen::MatrixXd lmi_at(const Layout& l, const Eigen::MatrixXd& A, const Sample& 
 }
 
 LinearMatrixInequality lmi_block(const Layout& l, const Eigen::MatrixXd& A, const Sample& s, const Eigen::VectorXd& w,
-                                 double gamma) {
+                                 double gamma, bool slack) {
   const int n = l.n, size = 3 * n;
   LinearMatrixInequality lmi;
   lmi.size = size;
@@ -110,7 +110,7 @@ LinearMatrixInequality lmi_block(const Layout& l, const Eigen::MatrixXd& A, cons
     F(l.N + i, l.N + i) = -1.0;
     lmi.terms.emplace_back(l.tau + i, packed(F));
   }
-  lmi.terms.emplace_back(l.last, packed(-Eigen::MatrixXd::Identity(size, size)));
+  if (slack) lmi.terms.emplace_back(l.last, packed(-Eigen::MatrixXd::Identity(size, size)));
   return lmi;
 }
 
@@ -126,6 +126,26 @@ void normalisation(const Layout& l, double cap, std::vector<LinearMatrixInequali
     lower.terms.emplace_back(static_cast<int>(v), packed(-E));
     upper.terms.emplace_back(static_cast<int>(v), packed(E));
   }
+  blocks.push_back(std::move(lower));
+  blocks.push_back(std::move(upper));
+}
+
+// I ≼ W P_x W ≼ κ I (P in original coordinates, W = diag(s I, I)), κ the last unknown.
+void condition_blocks(const Layout& l, double s, std::vector<LinearMatrixInequality>& blocks) {
+  LinearMatrixInequality lower, upper;
+  lower.size = upper.size = l.N;
+  lower.constant = packed(Eigen::MatrixXd::Identity(l.N, l.N));
+  upper.constant = packed(Eigen::MatrixXd::Zero(l.N, l.N));
+  Eigen::VectorXd W = Eigen::VectorXd::Ones(l.N);
+  W.head(l.n).setConstant(s);
+  for (std::size_t v = 0; v < l.p_entries.size(); ++v) {
+    Eigen::MatrixXd E = Eigen::MatrixXd::Zero(l.N, l.N);
+    E(l.p_entries[v].first, l.p_entries[v].second) = E(l.p_entries[v].second, l.p_entries[v].first) = 1.0;
+    E = W.asDiagonal() * E * W.asDiagonal();
+    lower.terms.emplace_back(static_cast<int>(v), packed(-E));
+    upper.terms.emplace_back(static_cast<int>(v), packed(E));
+  }
+  upper.terms.emplace_back(l.last, packed(-Eigen::MatrixXd::Identity(l.N, l.N)));
   blocks.push_back(std::move(lower));
   blocks.push_back(std::move(upper));
 }
@@ -185,6 +205,11 @@ struct PolytopicSearch::State {
                                                                      const Eigen::VectorXd& y) const;
   // Cutting planes until every sample holds (true, y set) or the SDP's slack is not negative (false).
   bool solve(double k1, double k2, double gamma, Eigen::VectorXd& y);
+  // Among the P (with τ) that hold at every sample for γ, the one with the smallest λmax/λmin in original coordinates
+  // (k² of the envelope), by cutting planes as in `solve`; the samples are checked at `gamma_check` < γ, since that P
+  // sits on its cuts' boundary at γ. `y` (from `solve`: it holds at every sample) is the solver's start, and is
+  // replaced when such a P is found.
+  void smallest_condition(double k1, double k2, double gamma, double gamma_check, Eigen::VectorXd& y);
   BoxBound box_bound(const std::vector<Interval>& box, const Eigen::MatrixXd& P, const Eigen::MatrixXd& constant,
                      double constant_radius) const;
   double largest_at(const Eigen::VectorXd& q, const Eigen::MatrixXd& A, double gamma, const Eigen::MatrixXd& P,
@@ -196,7 +221,7 @@ Eigen::VectorXd PolytopicSearch::State::solve_cuts(double k1, double k2, double 
   const Layout& l = layout;
   const Eigen::MatrixXd A = linear_part(l.n, k1, k2, balance(k2));
   std::vector<LinearMatrixInequality> blocks;
-  for (const auto& [s, v] : cuts) blocks.push_back(lmi_block(l, A, samples[s], vertices.col(v), gamma));
+  for (const auto& [s, v] : cuts) blocks.push_back(lmi_block(l, A, samples[s], vertices.col(v), gamma, true));
   normalisation(l, options.condition_cap, blocks);
   // A strictly feasible start: P_x = c I, τ = c, t above every block's largest eigenvalue there.
   const double c = std::sqrt(options.condition_cap);
@@ -257,6 +282,41 @@ bool PolytopicSearch::State::solve(double k1, double k2, double gamma, Eigen::Ve
         cuts.push_back(worst[static_cast<std::size_t>(c)].second);
   }
   return false;
+}
+
+void PolytopicSearch::State::smallest_condition(double k1, double k2, double gamma, double gamma_check,
+                                               Eigen::VectorXd& y) {
+  const Layout& l = layout;
+  const double s = balance(k2);
+  const Eigen::MatrixXd A = linear_part(l.n, k1, k2, s);
+  // y scaled so that λmin(P) > 1, κ above λmax(P): strictly feasible, the LMIs being homogeneous in (P, τ).
+  Eigen::VectorXd W = Eigen::VectorXd::Ones(l.N);
+  W.head(l.n).setConstant(s);
+  const Eigen::VectorXd eigenvalues = symmetric_eigenvalues(W.asDiagonal() * p_of(l, y) * W.asDiagonal());
+  if (!(eigenvalues.minCoeff() > 0.0)) return;
+  Eigen::VectorXd start = (1.01 / eigenvalues.minCoeff()) * y;
+  start(l.last) = 1.01 * eigenvalues.maxCoeff() * (1.01 / eigenvalues.minCoeff());
+  Eigen::VectorXd objective = Eigen::VectorXd::Zero(l.last + 1);
+  objective(l.last) = -1.0;
+  for (int round = 0; round < options.max_cut_rounds; ++round) {
+    std::vector<LinearMatrixInequality> blocks;
+    for (const auto& [c, v] : cuts) blocks.push_back(lmi_block(l, A, samples[c], vertices.col(v), gamma, false));
+    condition_blocks(l, s, blocks);
+    SdpOptions o = options.sdp;
+    o.start = start;
+    const SdpResult r = solve_sdp(l.last + 1, blocks, objective, o);
+    if (!r.solved || !r.y.allFinite()) return;
+    const auto worst = worst_samples(k1, k2, gamma_check, r.y);
+    if (worst.front().first < 0.0) {
+      y = r.y;
+      return;
+    }
+    const std::size_t before = cuts.size();
+    for (int c = 0; c < options.cuts_per_round && worst[static_cast<std::size_t>(c)].first >= 0.0; ++c)
+      if (std::find(cuts.begin(), cuts.end(), worst[static_cast<std::size_t>(c)].second) == cuts.end())
+        cuts.push_back(worst[static_cast<std::size_t>(c)].second);
+    if (cuts.size() == before) return;
+  }
 }
 
 namespace {
@@ -461,6 +521,7 @@ PolytopicCertificate PolytopicSearch::certificate(double k1, double k2, double g
                                 st.samples.size());
       return cert;
     }
+    st.smallest_condition(k1, k2, g, 0.5 * (g + gamma), y);
     const Eigen::MatrixXd P_x = p_of(l, y);
     const Eigen::VectorXd tau = y.segment(l.tau, l.n);
     const BoundBracket proof = st.prove(k1, k2, gamma, P_x, tau);

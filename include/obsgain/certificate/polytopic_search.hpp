@@ -4,7 +4,8 @@
 // δ_i (e_v,i − δ_i) >= 0, carried by one multiplier τ_i each: one LMI in (e, δ) per configuration and velocity
 // vertex, with no enumeration of the 2ⁿ patterns and no grid of cells.
 //   - P is chosen by an SDP on sampled configurations (numerics/sdp.hpp): the sampled configuration and velocity
-//     vertex where the current P fails most join the SDP until every sample holds. An estimate.
+//     vertex where the current P fails most join the SDP until every sample holds; then, among the P that hold, the
+//     one with the smallest condition number (the envelope's k). An estimate.
 //   - The proof: a branch and bound (bounds/branch_and_bound.hpp) over the joint domain on the LMI's largest
 //     eigenvalue, bounded over each box from the Taylor forms of M⁻¹J_j and M⁻¹F (bounds/box_bounds.hpp). It ends
 //     proven when every box is shown <= 0; a configuration where the LMI fails joins the samples, and P is chosen
@@ -67,7 +68,8 @@ class PolytopicSearch {
   double theta_star(double alpha, double beta, double gamma, double from);
   // The largest γ it finds a P for at (k1, k2) (an estimate; may be <= 0).
   double rate(double k1, double k2);
-  // P solved for γ / (1 − rate_margin), then proven at γ over the whole joint domain.
+  // P solved for γ / (1 − rate_margin), the one with the smallest k among those that hold at the samples, then
+  // proven at γ over the whole joint domain.
   PolytopicCertificate certificate(double k1, double k2, double gamma);
 
   const PolytopicSearchReport& report() const;
