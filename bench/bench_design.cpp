@@ -2,13 +2,15 @@
 // numeric bounds (target: median under 0.2 s) and with certified bounds, and with the polytopic certificate; and verify-bounds' computation
 // (certified bounds, 200 Monte Carlo trials, plot data; target under 60 s on 2 cores); and design-gains on
 // the 6-joint URDF arm of examples/ (5-dimensional bound search, 64 x 64 vertex/pattern choices for L_joint;
-// target under 30 s on 2 cores).
+// target under 30 s on 2 cores); and the three-joint URDF arm with the polytopic certificate by search.
 // Run: build/bench/bench_design --benchmark_repetitions=5
 #include "obsgain/design/design.hpp"
 #include "obsgain/parsers/robots.hpp"
 #include "obsgain/validation/verification.hpp"
 
 #include <benchmark/benchmark.h>
+
+#include <optional>
 
 namespace {
 
@@ -37,13 +39,16 @@ void VerifyPendubot(benchmark::State& state) {
   for (auto _ : state) benchmark::DoNotOptimize(obsgain::verify_design(model, options));
 }
 
-// An arm from its URDF: `design-gains --robot examples/armN.urdf --gamma 5 [--bounds numeric] [--bound-budget s]`.
-void DesignGainsArm(benchmark::State& state, const char* file, obsgain::BoundMethod method, double budget) {
+// An arm from its URDF: `design-gains --robot examples/armN.urdf --gamma 5 [--bounds numeric] [--bound-budget s]
+// [--certificate polytopic]`.
+void DesignGainsArm(benchmark::State& state, const char* file, obsgain::BoundMethod method, double budget,
+                    std::optional<obsgain::CertificateKind> certificate = std::nullopt) {
   const obsgain::Model model = obsgain::load_robot({std::string(OBSGAIN_EXAMPLES_DIR) + "/" + file});
   obsgain::DesignOptions options;
   options.gamma = 5.0;
   options.bound_method = method;
   options.certified_bounds.budget_seconds = budget;
+  if (certificate) options.certificate = *certificate;
   for (auto _ : state) benchmark::DoNotOptimize(obsgain::design_gains(model, options));
 }
 
@@ -56,6 +61,12 @@ BENCHMARK_CAPTURE(DesignGainsPendubot, certified, false, BoundMethod::certified)
 BENCHMARK(DesignGainsPendubotPolytopic)->Unit(benchmark::kSecond)->UseRealTime()->Iterations(1);
 BENCHMARK(VerifyPendubot)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1);
 BENCHMARK_CAPTURE(DesignGainsArm, arm3_certified_30s, "arm3.urdf", BoundMethod::certified, 30.0)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->Iterations(1);
+// The polytopic certificate by search (docs/theory.md): P on samples, the smallest k, the branch and bound proof.
+BENCHMARK_CAPTURE(DesignGainsArm, arm3_polytopic, "arm3.urdf", BoundMethod::certified, 30.0,
+                  obsgain::CertificateKind::polytopic)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime()
     ->Iterations(1);
