@@ -510,9 +510,13 @@ PolytopicCertificate PolytopicSearch::certificate(double k1, double k2, double g
   PolytopicCertificate cert;
   cert.gamma = gamma;
   const double g = gamma / (1.0 - st.options.rate_margin);
+  const auto over_budget = [&] {
+    return fmt::format("not proven within the proof budget of {} s, {} boxes", st.options.proof_budget,
+                       st.report.proof_boxes);
+  };
   for (int attempt = 0; attempt < st.options.proof_attempts; ++attempt) {
     if (st.report.proof_work >= st.options.proof_budget) {
-      cert.status = fmt::format("not proven within the proof budget of {} s", st.options.proof_budget);
+      cert.status = over_budget();
       return cert;
     }
     Eigen::VectorXd y;
@@ -533,8 +537,7 @@ PolytopicCertificate PolytopicSearch::certificate(double k1, double k2, double g
       continue;
     }
     if (!(proof.upper <= 0.0)) {
-      cert.status = fmt::format("not proven within the proof budget of {} s ({} boxes)", st.options.proof_budget,
-                                st.report.proof_boxes);
+      cert.status = over_budget();
       return cert;
     }
     Eigen::VectorXd W = Eigen::VectorXd::Ones(l.N);

@@ -51,7 +51,7 @@ TEST(PolytopicSearch, ProvesArm3AtHalfTheNormBoundGain) {
   ASSERT_TRUE(cert.exists) << cert.status;
   EXPECT_LT(theta, 0.55 * 61.54);
   EXPECT_EQ(cert.gamma, gamma);
-  // The P with the smallest k among those that hold on the samples: 48.0 at θ 29.85 (measured; the SDP's
+  // The P with the smallest k among those that hold on the samples: about 48 at θ 29.85 (measured; the SDP's
   // largest-margin P, proven before k was minimised, had 74.8). k bounds P's own condition from above, closely.
   const Eigen::VectorXd eigenvalues = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(cert.P).eigenvalues();
   const double k = std::sqrt(eigenvalues.maxCoeff() / eigenvalues.minCoeff());
