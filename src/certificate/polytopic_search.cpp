@@ -14,6 +14,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <optional>
 #include <random>
 
 namespace obsgain {
@@ -114,30 +115,21 @@ LinearMatrixInequality lmi_block(const Layout& l, const Eigen::MatrixXd& A, cons
   return lmi;
 }
 
-// I ≼ P_x ≼ cap I.
-void normalisation(const Layout& l, double cap, std::vector<LinearMatrixInequality>& blocks) {
-  LinearMatrixInequality lower, upper;
-  lower.size = upper.size = l.N;
-  lower.constant = packed(Eigen::MatrixXd::Identity(l.N, l.N));
-  upper.constant = packed(-cap * Eigen::MatrixXd::Identity(l.N, l.N));
-  for (std::size_t v = 0; v < l.p_entries.size(); ++v) {
-    Eigen::MatrixXd E = Eigen::MatrixXd::Zero(l.N, l.N);
-    E(l.p_entries[v].first, l.p_entries[v].second) = E(l.p_entries[v].second, l.p_entries[v].first) = 1.0;
-    lower.terms.emplace_back(static_cast<int>(v), packed(-E));
-    upper.terms.emplace_back(static_cast<int>(v), packed(E));
-  }
-  blocks.push_back(std::move(lower));
-  blocks.push_back(std::move(upper));
-}
-
-// I ≼ W P_x W ≼ κ I (P in original coordinates, W = diag(s I, I)), κ the last unknown.
-void condition_blocks(const Layout& l, double s, std::vector<LinearMatrixInequality>& blocks) {
-  LinearMatrixInequality lower, upper;
-  lower.size = upper.size = l.N;
-  lower.constant = packed(Eigen::MatrixXd::Identity(l.N, l.N));
-  upper.constant = packed(Eigen::MatrixXd::Zero(l.N, l.N));
+// W = diag(s I, I): P = W P_x W in original coordinates.
+Eigen::VectorXd original_weights(const Layout& l, double s) {
   Eigen::VectorXd W = Eigen::VectorXd::Ones(l.N);
   W.head(l.n).setConstant(s);
+  return W;
+}
+
+// I ≼ W P_x W, and W P_x W ≼ cap I, or with no cap ≼ κ I with κ the last unknown: the SDP's normalisation of P, in
+// balanced coordinates (W = I) or original ones.
+void normalisation(const Layout& l, const Eigen::VectorXd& W, std::optional<double> cap,
+                   std::vector<LinearMatrixInequality>& blocks) {
+  LinearMatrixInequality lower, upper;
+  lower.size = upper.size = l.N;
+  lower.constant = packed(Eigen::MatrixXd::Identity(l.N, l.N));
+  upper.constant = packed(-cap.value_or(0.0) * Eigen::MatrixXd::Identity(l.N, l.N));
   for (std::size_t v = 0; v < l.p_entries.size(); ++v) {
     Eigen::MatrixXd E = Eigen::MatrixXd::Zero(l.N, l.N);
     E(l.p_entries[v].first, l.p_entries[v].second) = E(l.p_entries[v].second, l.p_entries[v].first) = 1.0;
@@ -145,7 +137,7 @@ void condition_blocks(const Layout& l, double s, std::vector<LinearMatrixInequal
     lower.terms.emplace_back(static_cast<int>(v), packed(-E));
     upper.terms.emplace_back(static_cast<int>(v), packed(E));
   }
-  upper.terms.emplace_back(l.last, packed(-Eigen::MatrixXd::Identity(l.N, l.N)));
+  if (!cap) upper.terms.emplace_back(l.last, packed(-Eigen::MatrixXd::Identity(l.N, l.N)));
   blocks.push_back(std::move(lower));
   blocks.push_back(std::move(upper));
 }
@@ -222,7 +214,7 @@ Eigen::VectorXd PolytopicSearch::State::solve_cuts(double k1, double k2, double 
   const Eigen::MatrixXd A = linear_part(l.n, k1, k2, balance(k2));
   std::vector<LinearMatrixInequality> blocks;
   for (const auto& [s, v] : cuts) blocks.push_back(lmi_block(l, A, samples[s], vertices.col(v), gamma, true));
-  normalisation(l, options.condition_cap, blocks);
+  normalisation(l, Eigen::VectorXd::Ones(l.N), options.condition_cap, blocks);
   // A strictly feasible start: P_x = c I, τ = c, t above every block's largest eigenvalue there.
   const double c = std::sqrt(options.condition_cap);
   Eigen::VectorXd y = Eigen::VectorXd::Zero(l.last + 1);
@@ -289,19 +281,19 @@ void PolytopicSearch::State::smallest_condition(double k1, double k2, double gam
   const Layout& l = layout;
   const double s = balance(k2);
   const Eigen::MatrixXd A = linear_part(l.n, k1, k2, s);
+  const Eigen::VectorXd W = original_weights(l, s);
   // y scaled so that λmin(P) > 1, κ above λmax(P): strictly feasible, the LMIs being homogeneous in (P, τ).
-  Eigen::VectorXd W = Eigen::VectorXd::Ones(l.N);
-  W.head(l.n).setConstant(s);
   const Eigen::VectorXd eigenvalues = symmetric_eigenvalues(W.asDiagonal() * p_of(l, y) * W.asDiagonal());
   if (!(eigenvalues.minCoeff() > 0.0)) return;
-  Eigen::VectorXd start = (1.01 / eigenvalues.minCoeff()) * y;
-  start(l.last) = 1.01 * eigenvalues.maxCoeff() * (1.01 / eigenvalues.minCoeff());
+  const double scale = 1.01 / eigenvalues.minCoeff();
+  Eigen::VectorXd start = scale * y;
+  start(l.last) = 1.01 * scale * eigenvalues.maxCoeff();
   Eigen::VectorXd objective = Eigen::VectorXd::Zero(l.last + 1);
   objective(l.last) = -1.0;
   for (int round = 0; round < options.max_cut_rounds; ++round) {
     std::vector<LinearMatrixInequality> blocks;
     for (const auto& [c, v] : cuts) blocks.push_back(lmi_block(l, A, samples[c], vertices.col(v), gamma, false));
-    condition_blocks(l, s, blocks);
+    normalisation(l, W, std::nullopt, blocks);
     SdpOptions o = options.sdp;
     o.start = start;
     const SdpResult r = solve_sdp(l.last + 1, blocks, objective, o);
@@ -540,8 +532,7 @@ PolytopicCertificate PolytopicSearch::certificate(double k1, double k2, double g
       cert.status = over_budget();
       return cert;
     }
-    Eigen::VectorXd W = Eigen::VectorXd::Ones(l.N);
-    W.head(l.n).setConstant(balance(k2));
+    const Eigen::VectorXd W = original_weights(l, balance(k2));
     cert.P = W.asDiagonal() * P_x * W.asDiagonal();  // exact: W's entries are powers of two
     cert.multipliers = tau;
     const double smallest = smallest_eigenvalue_lower(cert.P);

@@ -278,12 +278,12 @@ void certify_polytopic_by_search(Design& d, const Model& model, const DesignOpti
   d.polytope = summary;
   if (!d.polytopic || !d.polytopic->observer.certified) {
     d.certificate = better_norm_bound(d);
-    d.warnings.push_back(fmt::format(
-        "the polytopic certificate failed ({}): the {} certificate is used{}",
-        d.polytopic ? d.polytopic->status : summary.unproven, to_string(d.certificate),
-        summary.proof_work >= options.polytopic_search.proof_budget ? " (a larger --proof-budget lets the proof go further; on six and more joints it "
-                                     "needs far more than minutes: docs/theory.md)"
-                                   : ""));
+    const bool budget_spent = summary.proof_work >= options.polytopic_search.proof_budget;
+    d.warnings.push_back(fmt::format("the polytopic certificate failed ({}): the {} certificate is used{}",
+                                     d.polytopic ? d.polytopic->status : summary.unproven, to_string(d.certificate),
+                                     budget_spent ? " (a larger --proof-budget lets the proof go further; on six and "
+                                                    "more joints it needs far more than minutes: docs/theory.md)"
+                                                  : ""));
   }
 }
 

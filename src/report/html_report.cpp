@@ -247,6 +247,17 @@ std::string verdict_line(const Design& d) {
   return "<span class='bad'>NOT CERTIFIED</span>: the chosen gain certifies no rate.";
 }
 
+// What the selected certificate rests on: L for the norm-bound ones; the polytopic one uses no L, but a proven
+// polytope (two joints) or a proof of its P over the joint domain (docs/theory.md).
+std::string certificate_basis(const Design& d) {
+  if (d.certificate == CertificateKind::polytopic)
+    return d.polytope && d.polytope->method == "search"
+               ? "polytopic certificate (one full P, its LMI proven over the joint domain by branch and bound)"
+               : "polytopic certificate (one full P, its LMI proven at every vertex of a proven polytope)";
+  return fmt::format("{} certificate on L = {} ({})", to_string(d.certificate), number(d.selected().observer.L),
+                     escape(d.certificate == CertificateKind::scaled ? std::string("L_T") : d.L_source));
+}
+
 // The verdict first: what is proven, with which gains, on which bounds, and what the simulations said.
 std::string verdict_section(const VerificationReport& r) {
   const Design& d = r.design.design;
@@ -266,9 +277,8 @@ std::string verdict_section(const VerificationReport& r) {
                               escape(version()) + ", " + escape(r.date) + "</p>\n</div>\n";
   if (!d.unfinished.empty()) return h.str() + command;
   h << "<p>Gains k1 = " << number(o.k1) << ", k2 = " << number(o.k2) << " (θ = "
-    << number(o.theta) << ", α = " << number(d.alpha) << ", β = " << number(d.beta) << "), " << to_string(d.certificate)
-    << " certificate on L = " << number(o.L) << " ("
-    << escape(d.certificate == CertificateKind::scaled ? std::string("L_T") : d.L_source) << "). Bounds: "
+    << number(o.theta) << ", α = " << number(d.alpha) << ", β = " << number(d.beta) << "), " << certificate_basis(d)
+    << ". Bounds: "
     << (b.certified ? fmt::format("proven by interval branch and bound, largest relative gap {:.1e}", worst_gap)
                     : std::string("numeric estimates (not proven)"))
     << ".</p>\n<p>Monte Carlo: "

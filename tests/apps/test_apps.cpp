@@ -414,7 +414,7 @@ TEST(DesignGainsApp, APolytopicProofPastItsBudgetFallsBackAndNamesTheBudget) {
   EXPECT_TRUE(j["certified"].get<bool>());
   EXPECT_EQ(j["polytope"]["method"], "search");
   EXPECT_GE(j["polytope"]["proof_work"].get<double>(), 0.5);
-  EXPECT_LT(j["polytope"]["proof_work"].get<double>(), 5.0);
+  EXPECT_LT(j["polytope"]["proof_work"].get<double>(), 1.0);  // 0.546: the round that crossed the budget ends
   const std::string warnings = j["warnings"].dump();
   EXPECT_NE(warnings.find("not proven within the proof budget of 0.5 s"), std::string::npos) << warnings;
   EXPECT_NE(warnings.find("a larger --proof-budget"), std::string::npos) << warnings;
@@ -432,6 +432,10 @@ TEST(VerifyBoundsApp, ThreeJointPolytopicCurveIsTheDesignsSearch) {
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const nlohmann::json report = read_json(out + "/report.json");
   ASSERT_EQ(report["design"]["certificate"], "polytopic");
+  // The verdict names what it rests on: the proof over the joint domain, not an L it does not use.
+  const std::string html = read_text(out + "/report.html");
+  EXPECT_NE(html.find("polytopic certificate (one full P, its LMI proven over the joint domain"), std::string::npos);
+  EXPECT_EQ(html.find("polytopic certificate on L"), std::string::npos);
   const double alpha = report["design"]["alpha"].get<double>();
   std::istringstream csv(read_text(out + "/rate_vs_theta.csv"));
   std::string line;
