@@ -364,7 +364,7 @@ std::string certificate_section(const VerificationReport& r) {
   for (const ComparisonRow& row : certificate_comparison(d)) {
     std::vector<std::string> cells = {row.label, number(row.paper), number(row.tight)};
     if (row.scaled) cells.push_back(number(*row.scaled));
-    if (row.polytopic) cells.push_back(number(*row.polytopic));
+    if (row.polytopic) cells.push_back(std::isnan(*row.polytopic) ? "—" : number(*row.polytopic));
     rows += table_row(cells);
   }
   h << "<h2>4. Certificates side by side</h2>\n" << table(rows) << "<p>Selected: <b>" << to_string(d.certificate) << "</b>. "

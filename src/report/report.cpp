@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <limits>
 #include <sstream>
 #include <tuple>
 
@@ -105,7 +106,13 @@ std::vector<ComparisonRow> certificate_comparison(const Design& d) {
     for (std::size_t i = 0; i < rows.size(); ++i) rows[i].*cell = values[i];
   };
   if (d.scaled) column(*d.scaled, &ComparisonRow::scaled);
-  if (d.polytopic) column(*d.polytopic, &ComparisonRow::polytopic);
+  if (d.polytopic) {
+    column(*d.polytopic, &ComparisonRow::polytopic);
+    // A polytopic P that was not proven certifies nothing: its rows "gamma certified at theta", "envelope rate" and
+    // "k" held the target asked and no k, not results.
+    if (!d.polytopic->observer.certified)
+      for (std::size_t i : {2u, 3u, 4u}) rows[i].polytopic = std::numeric_limits<double>::quiet_NaN();
+  }
   return rows;
 }
 
@@ -345,7 +352,7 @@ std::string format_certificates(const Design& d) {
   out << fmt::format("\nCertificates{}\n", d.target_gamma ? fmt::format(" for target gamma = {:.6g}", *d.target_gamma)
                                                              : fmt::format(" at theta = {:.6g}", d.paper.observer.theta));
   const auto cell = [](const std::optional<double>& x) {
-    return !x ? std::string() : std::isnan(*x) ? fmt::format(" {:>16}", "(not searched)") : fmt::format(" {:>16.6g}", *x);
+    return !x ? std::string() : std::isnan(*x) ? fmt::format(" {:>16}", "-") : fmt::format(" {:>16.6g}", *x);
   };
   out << fmt::format("  {:<38} {:>14} {:>16}{}{}\n", "", "paper", "tight", d.scaled ? fmt::format(" {:>16}", "scaled") : "",
                      d.polytopic ? fmt::format(" {:>16}", "polytopic") : "");

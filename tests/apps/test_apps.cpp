@@ -418,6 +418,12 @@ TEST(DesignGainsApp, APolytopicProofPastItsBudgetFallsBackAndNamesTheBudget) {
   const std::string warnings = j["warnings"].dump();
   EXPECT_NE(warnings.find("not proven within the proof budget of 0.5 s"), std::string::npos) << warnings;
   EXPECT_NE(warnings.find("a larger --proof-budget"), std::string::npos) << warnings;
+  // The table does not print the unproven P's target rate as certified.
+  const AppRun table = run("design-gains", "--robot " + examples +
+                                               "/arm3.urdf --gamma 5 --certificate polytopic --proof-budget 0.5 --quiet");
+  ASSERT_EQ(table.exit_code, 0) << table.err;
+  const auto line = table.out.substr(table.out.find("gamma certified at theta"));
+  EXPECT_EQ(line.substr(0, line.find('\n')).back(), '-') << line.substr(0, line.find('\n'));
 }
 
 // Above two joints the report's polytopic curve is the design's own search on sampled configurations, an estimate
