@@ -131,10 +131,31 @@ Eigen::MatrixXd coriolis_jacobian(const std::vector<Eigen::MatrixXd>& N, const E
   return J;
 }
 
+namespace {
+
+// Whether turning a body about a revolute axis through its frame's origin leaves its spatial inertia unchanged: the
+// centre of mass on the axis and the inertia commuting with the rotation's generator [a]x. Checked exactly (every
+// product and difference must be zero in floating point), so a body that is only nearly symmetric is not taken.
+bool symmetric_about(const RigidBody& body, const Eigen::Vector3d& axis) {
+  Eigen::Matrix3d generator;
+  generator << 0.0, -axis.z(), axis.y(), axis.z(), 0.0, -axis.x(), -axis.y(), axis.x(), 0.0;
+  const Eigen::Matrix3d commutator = body.inertia * generator - generator * body.inertia;
+  return body.com.cross(axis).isZero(0.0) && commutator.isZero(0.0);
+}
+
+}  // namespace
+
 std::vector<int> configuration_joints(const Model& model) {
   if (is_planar_2r(model)) return {1};
   std::vector<int> joints(static_cast<std::size_t>(model.dof() - 1));
   std::iota(joints.begin(), joints.end(), 1);
+  // The last joint moves only the last body (the tool lumped into it); when that body is symmetric about the joint's
+  // axis, nothing moves relative to anything else either: M and C do not depend on its position (docs/theory.md,
+  // "The constants").
+  const auto* chain = std::get_if<SerialChain>(&model.structure);
+  if (chain && joints.size() > 1 && chain->joints.back().type == JointType::revolute &&
+      symmetric_about(chain->bodies.back(), chain->joints.back().axis))
+    joints.pop_back();
   return joints;
 }
 

@@ -142,7 +142,7 @@ obsgain::Model long_chain(int n) {
     chain.joints.push_back(joint);
     obsgain::RigidBody body;
     body.mass = 1.0;
-    body.com = Eigen::Vector3d(0.0, 0.0, 0.15);
+    body.com = Eigen::Vector3d(0.02, 0.0, 0.15);  // off every axis: M and C depend on every joint but the first
     body.inertia = 0.01 * Eigen::Matrix3d::Identity();
     chain.bodies.push_back(body);
   }

@@ -86,3 +86,48 @@ TEST(Model, SingularInertiaIsReportedWithItsConfiguration) {
 }
 
 }  // namespace
+
+namespace {
+
+// M and the Coriolis tensors at q and at q with its last joint turned to `last`, their largest difference relative to
+// the largest entry.
+double last_joint_effect(const obsgain::Model& model, Eigen::VectorXd q, double last) {
+  const int n = model.dof();
+  Eigen::MatrixXd M(n, n), M_turned(n, n);
+  std::vector<Eigen::MatrixXd> N, N_turned;
+  obsgain::mass_matrix(model, q, M);
+  obsgain::coriolis_tensors(model, q, N);
+  q(n - 1) = last;
+  obsgain::mass_matrix(model, q, M_turned);
+  obsgain::coriolis_tensors(model, q, N_turned);
+  double difference = (M - M_turned).cwiseAbs().maxCoeff(), scale = M.cwiseAbs().maxCoeff();
+  for (int i = 0; i < n; ++i) {
+    difference = std::max(difference, (N[i] - N_turned[i]).cwiseAbs().maxCoeff());
+    scale = std::max(scale, N[i].cwiseAbs().maxCoeff());
+  }
+  return difference / scale;
+}
+
+}  // namespace
+
+// A last body symmetric about its joint's axis (arm7's and the iiwa's flange: centre of mass on the axis, isotropic
+// inertia) leaves M and C independent of that joint: the searches drop it. A body that is not (arm6's wrist, the
+// Panda's hand), or one moved off the axis by a millimetre, keeps it; the dynamics agree either way.
+TEST(Model, ALastBodySymmetricAboutItsAxisTakesItsJointOutOfTheSearch) {
+  const Eigen::VectorXd q7 = Eigen::VectorXd::LinSpaced(7, -2.0, 1.3);
+  for (const char* file : {"arm7.urdf", "iiwa14.urdf"}) {
+    const obsgain::Model arm = obsgain::load_robot({examples + "/" + file});
+    EXPECT_EQ(obsgain::configuration_joints(arm), (std::vector<int>{1, 2, 3, 4, 5})) << file;
+    EXPECT_LT(last_joint_effect(arm, q7, 2.9), 1e-14) << file;
+  }
+  obsgain::Model moved = obsgain::load_robot({examples + "/arm7.urdf"});
+  std::get<obsgain::SerialChain>(moved.structure).bodies.back().com.x() = 1e-3;
+  EXPECT_EQ(obsgain::configuration_joints(moved), (std::vector<int>{1, 2, 3, 4, 5, 6}));
+  EXPECT_GT(last_joint_effect(moved, q7, 2.9), 1e-6);
+  const obsgain::Model panda = obsgain::load_robot({examples + "/panda.urdf"});
+  EXPECT_EQ(obsgain::configuration_joints(panda).size(), 6u);
+  EXPECT_GT(last_joint_effect(panda, q7, 2.9), 1e-6);
+  const obsgain::Model arm6 = obsgain::load_robot({examples + "/arm6.urdf"});
+  EXPECT_EQ(obsgain::configuration_joints(arm6), (std::vector<int>{1, 2, 3, 4, 5}));
+  EXPECT_GT(last_joint_effect(arm6, Eigen::VectorXd::LinSpaced(6, -2.0, 1.3), 2.9), 1e-6);
+}
