@@ -134,9 +134,12 @@ Eigen::MatrixXd coriolis_jacobian(const std::vector<Eigen::MatrixXd>& N, const E
 namespace {
 
 // Whether turning a body about a revolute axis through its frame's origin leaves its spatial inertia unchanged: the
-// centre of mass on the axis and the inertia commuting with the rotation's generator [a]x. Checked exactly (every
-// product and difference must be zero in floating point), so a body that is only nearly symmetric is not taken.
+// centre of mass on the axis and the inertia commuting with the rotation's generator [a]x. Only about a coordinate
+// axis (±x, ±y, ±z), where every entry of the cross product and of the commutator is one product by 0 or ±1 or the
+// difference of two such: all exact, so a zero is a true zero and a body that is only nearly symmetric is not taken.
 bool symmetric_about(const RigidBody& body, const Eigen::Vector3d& axis) {
+  const bool coordinate = (axis.array().abs() == 1.0).count() == 1 && (axis.array() == 0.0).count() == 2;
+  if (!coordinate) return false;
   Eigen::Matrix3d generator;
   generator << 0.0, -axis.z(), axis.y(), axis.z(), 0.0, -axis.x(), -axis.y(), axis.x(), 0.0;
   const Eigen::Matrix3d commutator = body.inertia * generator - generator * body.inertia;
