@@ -7,6 +7,7 @@
 #include "obsgain/numerics/spectrum.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <chrono>
 #include <cmath>
@@ -476,7 +477,10 @@ BoundReport design_bounds(const Model& model, const Eigen::VectorXd& V, const De
   const auto phase = [&](const std::string& text) {
     if (options.progress) options.progress(text);
   };
-  phase(fmt::format("bounds: numeric search over {} joints (NLopt DIRECT-L, then Ipopt)", configuration_joints(model).size()));
+  std::vector<std::string> searched;
+  for (const int j : configuration_joints(model)) searched.push_back(fmt::format("q{}", j + 1));
+  phase(fmt::format("bounds: numeric search over {} (M and C do not depend on the other joints; NLopt DIRECT-L, then Ipopt)",
+                    fmt::join(searched, ", ")));
   // A similarity scaling serves the scaled certificate only (the polytopic one falls back to it): it is not searched
   // when another certificate is named, or when the certificate rests on L_paper or the user's L.
   BoundOptions bound_options = options.bounds;
