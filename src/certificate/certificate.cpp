@@ -43,8 +43,10 @@ double shifted_transfer_peak(double k1, double k2, double gamma) {
 }
 
 double tight_rate(double k1, double k2, double L) {
-  if (!(k1 > 0.0) || !(k2 > 0.0) || !(L > 0.0) || !std::isfinite(k1) || !std::isfinite(k2) || !std::isfinite(L))
-    throw InputError(fmt::format("tight certificate needs finite k1, k2, L > 0 (k1 = {}, k2 = {}, L = {})", k1, k2, L));
+  // L = 0 (a single joint: nothing couples the error to the velocity) is the linear observer alone: L times an
+  // infinite peak is NaN, not feasible, so the rate is where A2 + γI stops being Hurwitz, as it should be.
+  if (!(k1 > 0.0) || !(k2 > 0.0) || !(L >= 0.0) || !std::isfinite(k1) || !std::isfinite(k2) || !std::isfinite(L))
+    throw InputError(fmt::format("tight certificate needs finite k1, k2 > 0 and L >= 0 (k1 = {}, k2 = {}, L = {})", k1, k2, L));
   const auto feasible = [&](double gamma) { return L * shifted_transfer_peak(k1, k2, gamma) < 1.0; };
   // The feasible rates form an interval (-∞, γ_tight): a certificate for γ certifies every smaller rate.
   double lo = -1.0;
@@ -207,8 +209,9 @@ RiccatiCertificate tight_certificate(double k1, double k2, double L, double gamm
   cert.gamma = gamma;
   const double peak = shifted_transfer_peak(k1, k2, gamma);
   if (!(L * peak < 1.0)) return cert;  // no quadratic certificate exists at this rate
-  // Inflate L halfway to where the frequency condition would fail, so that the LMI at L is strict.
-  const double L_inflated = L * (1.0 + 0.5 * (1.0 / (L * peak) - 1.0));
+  // Inflate L halfway to where the frequency condition would fail (1 / peak), so that the LMI at L is strict; written
+  // without dividing by L, which may be 0 (a single joint).
+  const double L_inflated = 0.5 * (L + 1.0 / peak);
 
   Eigen::Matrix2d A;
   A << -k1 + gamma, 1.0, -k2, gamma;

@@ -227,6 +227,8 @@ TEST(Urdf, DesignAndValidateAThreeJointArm) {
   const std::string design = ::testing::TempDir() + "/obsgain_arm3_design.json";
   const AppRun d = run("design-gains", "--robot " + examples + "/arm3.urdf --gamma 5 --bounds numeric --json " + design);
   ASSERT_EQ(d.exit_code, 0) << d.err;
+  // The joints searched, by name: not q1 (it moves the whole chain), q3 too (the forearm is not symmetric about it).
+  EXPECT_NE(d.err.find("bounds: numeric search over q2, q3 (M and C do not depend on the other joints"), std::string::npos) << d.err;
   const nlohmann::json j = read_json(design);
   EXPECT_EQ(j["robot"]["name"], "arm3");
   EXPECT_EQ(j["robot"]["dof"], 3);
@@ -253,6 +255,14 @@ TEST(Urdf, AOneJointRobotIsDesignedAndValidated) {
   EXPECT_NEAR(M0["lower"].get<double>(), 1.0 / 0.27, 1e-12);
   EXPECT_NEAR(M0["upper"].get<double>(), 1.0 / 0.27, 1e-12);
   EXPECT_LT(j["bounds"]["brackets"]["L_joint"]["upper"].get<double>(), 1e-100);
+  // Nothing perturbs the error (L = 0): the linear observer's rate, γ < θ/2, so θ* = 2γ. On numeric bounds L is 0
+  // exactly, which the tight certificate refused (exit 2, "needs L > 0").
+  EXPECT_NEAR(j["design"]["theta_star"].get<double>(), 10.0, 1e-6);  // the design's θ search stops within 1.2e-7 of it
+  const AppRun numeric = run("design-gains", "--robot " + examples + "/pendulum.urdf --gamma 5 --bounds numeric --json");
+  ASSERT_EQ(numeric.exit_code, 0) << numeric.err;
+  const nlohmann::json n = nlohmann::json::parse(numeric.out);
+  EXPECT_EQ(n["bounds"]["L_joint"].get<double>(), 0.0);
+  EXPECT_NEAR(n["design"]["theta_star"].get<double>(), 10.0, 1e-6);  // the design's θ search stops within 1.2e-7 of it
   const AppRun r = run("monte-carlo", "--design " + design + " --trials 4 --horizon 0.3 --json");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_EQ(nlohmann::json::parse(r.out)["passed"], 4);
