@@ -16,9 +16,11 @@ namespace obsgain {
 
 namespace {
 
-// The bounds' functions along the first joint that M and C depend on (the others at the M0 argmax).
+// The bounds' functions along the first joint that M and C depend on (the others at the M0 argmax); along q1 when
+// they depend on none (a single joint): flat curves.
 void bound_curves(const Model& model, const Design& d, const VerificationOptions& options, VerificationReport& report) {
-  report.curve_joint = configuration_joints(model).front();
+  const std::vector<int> searched = configuration_joints(model);
+  report.curve_joint = searched.empty() ? 0 : searched.front();
   const JointDomain& joint = model.joints[report.curve_joint];
   const double lo = joint.continuous ? -std::numbers::pi : joint.lower;
   const double hi = joint.continuous ? std::numbers::pi : joint.upper;

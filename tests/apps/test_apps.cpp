@@ -266,6 +266,24 @@ TEST(Urdf, AOneJointRobotIsDesignedAndValidated) {
   const AppRun r = run("monte-carlo", "--design " + design + " --trials 4 --horizon 0.3 --json");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_EQ(nlohmann::json::parse(r.out)["passed"], 4);
+  // verify-bounds swept the first searched joint, of which there is none here (it crashed): flat curves along q1.
+  const std::string out = ::testing::TempDir() + "/obsgain_pendulum_report";
+  const AppRun v = run("verify-bounds", "--robot " + examples + "/pendulum.urdf --gamma 5 --trials 4 --quiet --out " + out);
+  ASSERT_EQ(v.exit_code, 0) << v.err;
+  std::istringstream csv(read_text(out + "/bound_curves.csv"));
+  std::string line;
+  std::getline(csv, line);
+  ASSERT_EQ(line, "angle,inverse_inertia_norm,jacobian_norm,joint_lipschitz_norm");
+  int points = 0;
+  while (std::getline(csv, line)) {
+    double angle = 0.0, M0 = 0.0, B = 0.0, L = 0.0;
+    ASSERT_EQ(std::sscanf(line.c_str(), "%lf,%lf,%lf,%lf", &angle, &M0, &B, &L), 4) << line;
+    EXPECT_NEAR(M0, 1.0 / 0.27, 1e-9) << line;
+    EXPECT_EQ(B, 0.0) << line;
+    EXPECT_EQ(L, 0.0) << line;
+    ++points;
+  }
+  EXPECT_EQ(points, 721);
 }
 
 // A search stopped before M(q)⁻¹ was bounded on every box proves nothing: an unmet request (exit 1) that says what
