@@ -480,7 +480,7 @@ BoundReport design_bounds(const Model& model, const Eigen::VectorXd& V, const De
   std::vector<std::string> searched;
   for (const int j : configuration_joints(model)) searched.push_back(fmt::format("q{}", j + 1));
   phase(fmt::format("bounds: numeric search over {} (M and C do not depend on the other joints; NLopt DIRECT-L, then Ipopt)",
-                    fmt::join(searched, ", ")));
+                    searched.empty() ? std::string("no joint") : fmt::format("{}", fmt::join(searched, ", "))));
   // A similarity scaling serves the scaled certificate only (the polytopic one falls back to it): it is not searched
   // when another certificate is named, or when the certificate rests on L_paper or the user's L.
   BoundOptions bound_options = options.bounds;
