@@ -30,11 +30,11 @@ two=$(timed mpirun -np 2 "$build/${mc[0]}" "${mc[@]:1}" --threads 1)
 threads=$(timed "$build/${mc[0]}" "${mc[@]:1}" --threads 2)
 echo "monte-carlo, arm3, $trials trials: 1 rank $one s, 2 ranks $two s (speed-up $(calc "$one / $two")), 1 process of 2 threads $threads s; $(calc "1000 * $one / $trials") ms per trial"
 
-design=(design-gains --robot examples/arm6.urdf --gamma 5 --bound-budget 30)
+design=(design-gains --robot examples/arm6.urdf --gamma 5 --bound-budget 15)
 mpirun -np 1 "$build/${design[0]}" "${design[@]:1}" --threads 1 --quiet --json > "$scratch/out.json"
 read -r one boxes < <(searches)
 mpirun -np 2 "$build/${design[0]}" "${design[@]:1}" --threads 1 --quiet --json > "$scratch/out.json"
 read -r two _ < <(searches)
 "$build/${design[0]}" "${design[@]:1}" --threads 2 --quiet --json > "$scratch/out.json"
 read -r threads _ < <(searches)
-echo "bound search, arm6, budget 30: 1 rank $one s, 2 ranks $two s (speed-up $(calc "$one / $two")), 1 process of 2 threads $threads s; $boxes boxes, $(calc "1000 * $one / $boxes") ms per box"
+echo "bound search, arm6, budget 15: 1 rank $one s, 2 ranks $two s (speed-up $(calc "$one / $two")), 1 process of 2 threads $threads s; $boxes boxes, $(calc "1000 * $one / $boxes") ms per box"

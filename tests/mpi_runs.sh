@@ -32,7 +32,7 @@ check() {
 }
 
 check pendubot design-gains --robot pendubot --gamma 1.27
-check arm3 design-gains --robot "$root/examples/arm3.urdf" --gamma 5 --bound-budget 3
+check arm3 design-gains --robot "$root/examples/arm3.urdf" --gamma 5 --bound-budget 1.5
 check monte-carlo monte-carlo --robot pendubot --gamma 1.27 --trials 40 --seed 7
 # Rank 1 prints nothing: one table, not two.
 tables=$(mpirun -np 2 --oversubscribe "$apps/design-gains" --robot pendubot --gamma 1.27 --quiet | grep -c "^obsgain design for")

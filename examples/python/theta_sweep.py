@@ -16,7 +16,7 @@ import obsgain
 here = os.path.dirname(os.path.abspath(__file__))
 parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
 parser.add_argument("--robot", default=os.path.join(here, "..", "arm3.urdf"))
-parser.add_argument("--bound-budget", type=float, default=30)
+parser.add_argument("--bound-budget", type=float, default=15)
 parser.add_argument("--out", default=".")
 arguments = parser.parse_args()
 

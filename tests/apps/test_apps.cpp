@@ -333,7 +333,7 @@ TEST(DesignGainsApp, AWideProvenBracketIsNamedInAWarning) {
 TEST(DesignGainsApp, TheSameJsonForAnyThreadCountAndOnEveryRun) {
   const std::string examples = OBSGAIN_EXAMPLES_DIR;
   const auto design = [&](int threads) {
-    const AppRun r = run("design-gains", "--robot " + examples + "/arm3.urdf --gamma 5 --bound-budget 0.5 --quiet --json --threads " +
+    const AppRun r = run("design-gains", "--robot " + examples + "/arm3.urdf --gamma 5 --bound-budget 0.25 --quiet --json --threads " +
                                              std::to_string(threads));
     EXPECT_EQ(r.exit_code, 0) << r.err;
     nlohmann::json j = nlohmann::json::parse(r.out);

@@ -100,7 +100,7 @@ TEST(InertiaFloor, APublishedUrdfWithoutRotorInertiaGetsFiniteCertifiedBrackets)
   light.diagonal_scaling = false;
   const obsgain::BoundReport numeric = obsgain::compute_bounds(ur5, ur5.velocity_bounds, light);
   obsgain::CertifiedOptions options;
-  options.budget_seconds = 1.0;
+  options.budget_seconds = 0.5;
   const obsgain::CertifiedBounds brackets = *obsgain::certify_bounds(ur5, numeric, options);
   const double floor = obsgain::inertia_floor(ur5);
   EXPECT_GE(brackets.M0.upper, brackets.M0.lower);

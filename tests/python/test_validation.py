@@ -99,7 +99,7 @@ def test_a_run_past_the_step_budget_says_what_would_help(pendubot):
 
 
 @pytest.mark.parametrize("example,arguments", [("design_pendubot.py", ["--trials", "12"]),
-                                               ("theta_sweep.py", ["--bound-budget", "2"])])
+                                               ("theta_sweep.py", ["--bound-budget", "1"])])
 def test_examples_run_headless(example, arguments, tmp_path):
     script = os.path.join(SOURCE_DIR, "examples", "python", example)
     done = subprocess.run([sys.executable, script, *arguments, "--out", str(tmp_path)], capture_output=True, text=True,
