@@ -12,6 +12,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <utility>
 
 namespace obsgain {
 
@@ -348,10 +349,15 @@ void choose_lipschitz(Design& d, const BoundReport& bounds, const DesignOptions&
       d.warnings.push_back("the overriding L is below the model's L_joint: the certificate rests on the user's L, "
                            "not on the model");
   }
-  for (const auto* bound : {&bounds.M0, &bounds.B, &bounds.L_joint}) {
+  // Two local maxima that differ say the estimate may be below the supremum. Certified bounds use their brackets'
+  // proven upper ends, whatever the optimisers found: the disagreement is then no warning.
+  if (bounds.certified) return;
+  const std::pair<const char*, const BoundMaximum*> named[] = {{"M0", &bounds.M0}, {"B", &bounds.B}, {"L_joint", &bounds.L_joint}};
+  for (const auto& [name, bound] : named) {
     if (std::abs(bound->global_value - bound->polish_value) > 1e-6 * std::max(bound->global_value, bound->polish_value))
-      d.warnings.push_back(fmt::format("bound search: NLopt ({:.10g}) and Ipopt ({:.10g}) disagree beyond 1e-6",
-                                       bound->global_value, bound->polish_value));
+      d.warnings.push_back(fmt::format("bound search: {}: NLopt ({:.10g}) and Ipopt ({:.10g}) disagree beyond 1e-6 (the "
+                                       "larger is used; the supremum may be higher: --bounds certified proves it)",
+                                       name, bound->global_value, bound->polish_value));
   }
 }
 
