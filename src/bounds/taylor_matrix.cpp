@@ -476,6 +476,22 @@ std::vector<Taylor> left_multiply(const Eigen::MatrixXd& K, const std::vector<Ta
   return Y;
 }
 
+// ||X(ε)||₂ over the box by the triangle inequality, term by term: ||C||₂ + Σ_k ||G_k||₂ + Σ_p ||H_p||_F + remainder.
+// Where X's centre vanishes (E = K M Kᵀ - I below) norm_upper's top direction is the centre's and means nothing; this
+// bound follows the slopes' own norms instead (arm7, a box of ±0.15 rad at L_joint's maximiser: ||E|| sampled 0.135,
+// norm_upper 0.252, this 0.205; docs/theory.md, "M⁻¹ over a box"). The eigensolvers run in the default rounding; the
+// few sums before the upward ones are within up()'s inflation.
+double termwise_norm_upper(const TaylorMatrix& X) {
+  double terms = spectral_norm_upper(X.centre);
+  for (const Eigen::MatrixXd& G : X.slopes) terms += spectral_norm_upper(G);
+  const UpwardRounding upward;
+  for (const Eigen::MatrixXd& H : X.curvatures) terms += frobenius(H);
+  return up(terms + X.remainder);
+}
+
+// The smaller of the two proven bounds of ||X(ε)||₂ over the box.
+double inverse_norm_upper(const TaylorMatrix& X) { return std::min(norm_upper(X, 0.0), termwise_norm_upper(X)); }
+
 std::vector<Taylor> transpose(const std::vector<Taylor>& X, int n) {
   std::vector<Taylor> Y(X.size());
   for (int i = 0; i < n; ++i)
@@ -501,13 +517,13 @@ TaylorInverse inverse(const std::vector<Taylor>& M, int n, int symbols) {
   };
   double c = 1.0;
   std::vector<Taylor> E = shifted(c);
-  double eta = norm_upper(taylor_matrix(E.data(), n, n, symbols), 0.0);
+  double eta = inverse_norm_upper(taylor_matrix(E.data(), n, n, symbols));
   if (!(eta < 1.0)) {
     const double low = smallest_eigenvalue_lower(taylor_matrix(Y.data(), n, n, symbols));
     if (!(low > 0.0) || !std::isfinite(eta)) return result;
     c = 2.0 / (low + 1.0 + eta);  // λmax(Y) <= 1 + ||Y - I||
     E = shifted(c);
-    eta = norm_upper(taylor_matrix(E.data(), n, n, symbols), 0.0);
+    eta = inverse_norm_upper(taylor_matrix(E.data(), n, n, symbols));
     if (!(eta < 1.0)) return result;
   }
   // c Kᵀ (I - E + E²) K.
@@ -523,7 +539,7 @@ TaylorInverse inverse(const std::vector<Taylor>& M, int n, int symbols) {
   // tail is c ||E K||² η / (1 - η), which sees that E K is small where M varies only in its heavy directions
   // (||E K|| <= η ||K||). ||E K|| = ||(E K)ᵀ|| = ||Kᵀ E|| for the symmetric E that every member of the forms is.
   const std::vector<Taylor> KtE = left_multiply(K.transpose(), E, n);
-  const double EK_norm = norm_upper(taylor_matrix(KtE.data(), n, n, symbols), 0.0);
+  const double EK_norm = inverse_norm_upper(taylor_matrix(KtE.data(), n, n, symbols));
   const UpwardRounding upward;
   const Interval e(eta);
   result.tail = (Interval(c) * Interval(EK_norm) * Interval(EK_norm) * e / (Interval(1.0) - e)).upper();
