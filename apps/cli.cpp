@@ -107,8 +107,9 @@ void add_certificate_options(CLI::App& app, DesignArguments& a) {
       ->capture_default_str()
       ->type_name("certified|numeric");
   app.add_option("--bound-budget", a.bound_budget,
-                 "certified bounds: wall-time budget in seconds for the interval search (default 120; 0: until the "
-                 "gap target); the design uses the proven upper ends reached, whatever the gap")
+                 "certified bounds: the interval search's work in seconds, counted (about the wall time on a 2-core "
+                 "machine; the same boxes on any machine and thread count; default 120; 0: until the gap target); the "
+                 "design uses the proven upper ends reached, whatever the gap")
       ->type_name("SECONDS");
   app.add_option("--proof-budget", a.proof_budget,
                  "polytopic certificate above two joints: counted work in seconds for the branch and bound that proves "
@@ -293,8 +294,6 @@ RobotSource to_robot_source(const DesignArguments& a) {
 }
 
 void add_monte_carlo_options(CLI::App& app, MonteCarloArguments& a) {
-  app.add_option("--design", a.design_file, "validate the design saved by design-gains --json FILE")
-      ->type_name("FILE");
   app.add_option("--trials", a.trials, "number of trials")->capture_default_str()
       ->type_name("COUNT");
   app.add_option("--seed", a.seed, "random seed; a trial's draw depends on (seed, trial index) only")->capture_default_str()

@@ -42,7 +42,6 @@ DesignRequest to_design_request(const DesignArguments& arguments, const Model& m
 RobotSource to_robot_source(const DesignArguments& arguments);
 
 struct MonteCarloArguments {
-  std::string design_file;
   std::string trials = "1000", seed = "1", horizon = "1", rtol = "1e-8", atol = "1e-10";
   std::string scenario = "random", initial_errors = "both";
   std::string step_budget;  // not given: MonteCarloOptions' default

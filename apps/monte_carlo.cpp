@@ -17,6 +17,8 @@ int main(int argc, char** argv) {
   obsgain::add_design_options(app, design);
   obsgain::MonteCarloArguments arguments;
   obsgain::add_monte_carlo_options(app, arguments);
+  std::string design_file;
+  app.add_option("--design", design_file, "validate the design saved by design-gains --json FILE")->type_name("FILE");
   std::string json_path, csv_path, trajectory_path;
   auto* json = app.add_option("--json", json_path, "write JSON to stdout (no FILE, or -), or to FILE")
                    ->expected(0, 1)
@@ -25,7 +27,7 @@ int main(int argc, char** argv) {
   app.add_option("--trajectory", trajectory_path, "write the time series of trial 0 to FILE")->type_name("FILE");
   return obsgain::run_app(app, argc, argv, [&] {
     const obsgain::MonteCarloOptions options = obsgain::to_monte_carlo_options(arguments, design);
-    const obsgain::ValidationTarget target = obsgain::load_validation_target(design, arguments.design_file);
+    const obsgain::ValidationTarget target = obsgain::load_validation_target(design, design_file);
     const obsgain::MonteCarloReport report = obsgain::run_monte_carlo(target.model, target.certificate, options);
     obsgain::close_progress_line();
     if (!report.not_run.empty()) throw obsgain::UnmetRequest(report.not_run);

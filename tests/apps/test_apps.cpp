@@ -513,6 +513,9 @@ TEST(VerifyBoundsApp, ThreeJointPolytopicCurveIsTheDesignsSearch) {
 TEST(VerifyBoundsApp, RefusesBadInput) {
   expect_refused("--gamma 1.27", "--out", "verify-bounds");
   expect_refused("--gamma -2 --out /tmp/x", "gamma = -2", "verify-bounds");
+  // It computes its design: --design (monte-carlo's) is neither offered in its help nor accepted.
+  expect_refused("--gamma 1.27 --design saved.json --out /tmp/x", "--design", "verify-bounds");
+  EXPECT_EQ(run("verify-bounds", "--help").out.find("--design"), std::string::npos);
 }
 
 }  // namespace
