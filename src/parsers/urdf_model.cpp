@@ -65,8 +65,19 @@ RigidBody lump(const RigidBody& body, const RigidBody& part, const Eigen::Matrix
   return result;
 }
 
-// InputError naming the joint when the data cannot describe a physical chain (sizes, non-unit axes, negative
-// masses, inertias that are not positive semidefinite, non-finite numbers).
+// Why a body cannot be physical (a negative or non-finite mass, non-finite numbers, an inertia that is not positive
+// semidefinite), or nothing.
+std::string unphysical(const RigidBody& body) {
+  if (!std::isfinite(body.mass) || body.mass < 0.0 || !body.com.allFinite() || !body.inertia.allFinite())
+    return fmt::format("has mass {} (must be finite and >= 0)", body.mass);
+  const double smallest = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(body.inertia).eigenvalues()(0);
+  if (smallest < -1e-9 * std::max(1.0, body.inertia.norm()))
+    return fmt::format("has an inertia that is not positive semidefinite (smallest principal moment {:.6g})", smallest);
+  return {};
+}
+
+// InputError naming the joint when the data cannot describe a physical chain (sizes, non-unit axes, unphysical
+// bodies).
 void validate_chain(const SerialChain& chain, const std::string& source) {
   const int n = chain.dof();
   if (n == 0) throw InputError(source + ": the chain has no moving joint");
@@ -80,14 +91,8 @@ void validate_chain(const SerialChain& chain, const std::string& source) {
     if (!joint.rotation.allFinite() || !joint.translation.allFinite() || !joint.axis.allFinite() ||
         std::abs(joint.axis.norm() - 1.0) > 1e-9)
       throw InputError(fmt::format("{}: joint '{}' needs a finite placement and a unit axis", source, joint.name));
-    if (!std::isfinite(body.mass) || body.mass < 0.0 || !body.com.allFinite() || !body.inertia.allFinite())
-      throw InputError(fmt::format("{}: the body moved by joint '{}' has mass {} (must be finite and >= 0)", source,
-                                   joint.name, body.mass));
-    const double smallest = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(body.inertia).eigenvalues()(0);
-    if (smallest < -1e-9 * std::max(1.0, body.inertia.norm()))
-      throw InputError(fmt::format("{}: the body moved by joint '{}' has an inertia that is not positive semidefinite "
-                                   "(smallest principal moment {:.6g})",
-                                   source, joint.name, smallest));
+    if (const std::string why = unphysical(body); !why.empty())
+      throw InputError(fmt::format("{}: the body moved by joint '{}' {}", source, joint.name, why));
     if (!std::isfinite(chain.armature[i]) || chain.armature[i] < 0.0)
       throw InputError(fmt::format("{}: joint '{}' has armature {} (must be >= 0)", source, joint.name, chain.armature[i]));
   }
@@ -149,8 +154,9 @@ bool movable(const urdf::Joint& joint) {
 // A chain joint moves freely; a mimic joint follows another and is locked with the side branches.
 bool chain_candidate(const urdf::Joint& joint) { return movable(joint) && !joint.mimic; }
 
-// The link's own inertia as a RigidBody in the link's frame.
-RigidBody link_body(const urdf::Link& link) {
+// The link's own inertia as a RigidBody in the link's frame. Each link is checked before it is lumped: a negative mass
+// lumped into a body of none made that body massless (the link vanished), and one lumped into a heavier body hid it.
+RigidBody link_body(const urdf::Link& link, const std::string& source) {
   RigidBody body;
   if (!link.inertial) return body;
   const urdf::Inertial& in = *link.inertial;
@@ -160,6 +166,8 @@ RigidBody link_body(const urdf::Link& link) {
   body.mass = in.mass;
   body.com = T.translation();
   body.inertia = T.linear() * I * T.linear().transpose();
+  if (const std::string why = unphysical(body); !why.empty())
+    throw InputError(fmt::format("{}: link '{}' {}", source, link.name, why));
   return body;
 }
 
@@ -335,7 +343,7 @@ BuiltChain build_chain(const urdf::ModelInterface& robot, const std::string& bas
   Eigen::Isometry3d placement = Eigen::Isometry3d::Identity();  // current link in the current body's frame
   std::function<void(const urdf::Link&, const Eigen::Isometry3d&)> lump_subtree = [&](const urdf::Link& link,
                                                                                         const Eigen::Isometry3d& T) {
-    if (!chain.bodies.empty()) chain.bodies.back() = lump(chain.bodies.back(), link_body(link), T.linear(), T.translation());
+    if (!chain.bodies.empty()) chain.bodies.back() = lump(chain.bodies.back(), link_body(link, source), T.linear(), T.translation());
     for (const auto& joint : link.child_joints) {
       if (on_path.count(joint->name)) continue;
       const double position = movable(*joint) ? locked_position(robot, *joint) : 0.0;

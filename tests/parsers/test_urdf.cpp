@@ -200,6 +200,15 @@ TEST(Urdf, MalformedFilesAreRefusedNamingTheProblem) {
   expect_urdf_refused({write_temp_file("zero_mass.urdf", with_second_link(
                      R"(<inertial><mass value="0"/><inertia ixx="0" ixy="0" ixz="0" iyy="0" iyz="0" izz="0"/></inertial>)"))},
                  "joint 'j2' moves no mass or inertia");
+  // A link's own inertial is checked before it is lumped: a negative mass made j2's body massless (l2 vanished, and
+  // the Kinova Gen3's forearm at -0.93 kg gave a design), an inertia that is not positive semidefinite could hide in
+  // a heavier body.
+  expect_urdf_refused({write_temp_file("negative_mass.urdf", with_second_link(
+                     R"(<inertial><mass value="-0.5"/><inertia ixx="0.001" ixy="0" ixz="0" iyy="0.001" iyz="0" izz="0.001"/></inertial>)"))},
+                 "link 'l2' has mass -0.5 (must be finite and >= 0)");
+  expect_urdf_refused({write_temp_file("indefinite.urdf", with_second_link(
+                     R"(<inertial><mass value="0.5"/><inertia ixx="0.001" ixy="0" ixz="0" iyy="0.001" iyz="0" izz="-0.001"/></inertial>)"))},
+                 "link 'l2' has an inertia that is not positive semidefinite");
   std::string unlimited = two_links;
   unlimited.replace(unlimited.find(R"(name="j2" type="continuous")"), 27, R"(name="j2" type="revolute")");
   expect_urdf_refused({write_temp_file("unlimited.urdf", unlimited)}, "not a valid URDF: Joint [j2] is of type REVOLUTE but it does not specify limits");
