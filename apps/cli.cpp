@@ -13,7 +13,6 @@
 #include <fstream>
 #include <iostream>
 #include <iterator>
-#include <sstream>
 #include <unistd.h>
 
 namespace obsgain {
@@ -30,12 +29,25 @@ double parse_number(const std::string& name, const std::string& text) {
   return value;
 }
 
+namespace {
+
+// Every item between commas, a last empty one too: "1,2," is refused as "1,,2" is (getline would drop it).
+std::vector<std::string> split_list(const std::string& text) {
+  std::vector<std::string> items;
+  for (std::size_t start = 0;;) {
+    const std::size_t comma = text.find(',', start);
+    items.push_back(text.substr(start, comma == std::string::npos ? comma : comma - start));
+    if (comma == std::string::npos) return items;
+    start = comma + 1;
+  }
+}
+
+}  // namespace
+
 Eigen::VectorXd parse_number_list(const std::string& name, const std::string& text) {
+  if (text.empty()) throw InputError(fmt::format("{} = '' is empty", name));
   std::vector<double> values;
-  std::stringstream stream(text);
-  std::string item;
-  while (std::getline(stream, item, ',')) values.push_back(parse_number(name, item));
-  if (values.empty()) throw InputError(fmt::format("{} = '{}' is empty", name, text));
+  for (const std::string& item : split_list(text)) values.push_back(parse_number(name, item));
   return Eigen::Map<Eigen::VectorXd>(values.data(), static_cast<Eigen::Index>(values.size()));
 }
 
@@ -260,9 +272,7 @@ DesignRequest to_design_request(const DesignArguments& a, const Model& model) {
 RobotSource to_robot_source(const DesignArguments& a) {
   RobotSource source{a.robot, a.base_link, a.tip_link, {}, {}, {}};
   if (!a.joint_limits.empty()) {
-    std::stringstream stream(a.joint_limits);
-    std::string item;
-    while (std::getline(stream, item, ',')) {
+    for (const std::string& item : split_list(a.joint_limits)) {
       const auto i = source.joint_limits.size() + 1;
       JointDomain domain;
       if (item != "c") {

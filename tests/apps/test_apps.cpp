@@ -88,6 +88,10 @@ TEST(DesignGainsApp, RefusesValuesOutsideTheAdmissibleRanges) {
   expect_refused("--gamma \"\" --theta 10", "--gamma = '' is empty");
   expect_refused("--gamma 1 --vmax \"\"", "--vmax = '' is empty");
   expect_refused("--gamma 1 --vmax 1e300,1e300", "V1 = 1e+300 (--vmax) must lie in");
+  // A list's last empty item is refused as an inner one is (it was dropped: "1,2," read as two values).
+  expect_refused("--gamma 1 --vmax 1,1,", "vmax = '' is not a decimal number");
+  expect_refused("--robot " + std::string(OBSGAIN_EXAMPLES_DIR) + "/arm3.urdf --gamma 1 --joint-limits c,-1:1,c,",
+                 "joint-limits: range 4 = '' is not lower:upper or c");
   expect_refused("--gamma 1 --bound-budget -1", "--bound-budget = -1");
   expect_refused("--gamma 1 --proof-budget 0", "--proof-budget = 0 must lie in (0, 1e6]");
   expect_refused("--gamma 1 --proof-budget 1e7", "--proof-budget = 10000000 must lie in");
