@@ -50,7 +50,11 @@ class FirstError final : public console_bridge::OutputHandler {
 RigidBody lump(const RigidBody& body, const RigidBody& part, const Eigen::Matrix3d& rotation,
                const Eigen::Vector3d& translation) {
   const double mass = body.mass + part.mass;
-  if (mass <= 0.0) return body;
+  if (mass <= 0.0) {  // both massless: no centre of mass to shift to, but their rotational inertias still add
+    RigidBody result = body;
+    result.inertia += rotation * part.inertia * rotation.transpose();
+    return result;
+  }
   const Eigen::Vector3d part_com = rotation * part.com + translation;
   const Eigen::Vector3d com = (body.mass * body.com + part.mass * part_com) / mass;
   // Parallel-axis theorem: I_about_c = I_own + m (|d|² I - d dᵀ) with d the offset of each body's centre from c.

@@ -200,6 +200,14 @@ TEST(Urdf, MalformedFilesAreRefusedNamingTheProblem) {
   expect_urdf_refused({write_temp_file("zero_mass.urdf", with_second_link(
                      R"(<inertial><mass value="0"/><inertia ixx="0" ixy="0" ixz="0" iyy="0" iyz="0" izz="0"/></inertial>)"))},
                  "joint 'j2' moves no mass or inertia");
+  // A massless link with rotational inertia (a rotor's, say) keeps it when lumped into a massless body: it was dropped,
+  // and j2 refused as moving nothing. M's j2 diagonal is then its moment about the axis, whatever q.
+  const obsgain::Model rotor = obsgain::load_robot({write_temp_file("massless_rotor.urdf", with_second_link(
+      R"(<inertial><mass value="0"/><inertia ixx="0.001" ixy="0" ixz="0" iyy="0.002" iyz="0" izz="0.003"/></inertial>)"))});
+  Eigen::MatrixXd M(2, 2);
+  obsgain::mass_matrix(rotor, Eigen::Vector2d(0.4, 1.1), M);
+  EXPECT_NEAR(M(1, 1), 0.002, 1e-15);
+  EXPECT_NEAR(M(0, 1), 0.002, 1e-15);
   // A link's own inertial is checked before it is lumped: a negative mass made j2's body massless (l2 vanished, and
   // the Kinova Gen3's forearm at -0.93 kg gave a design), an inertia that is not positive semidefinite could hide in
   // a heavier body.
