@@ -22,8 +22,8 @@ namespace obsgain {
 
 namespace {
 
-// urdfdom reports why it rejects a file through console_bridge; keep its first error for our one-line message
-// instead of letting it print.
+// urdfdom reports why it rejects a file through console_bridge; keep its first two errors (what was wrong, then where)
+// for our one-line message instead of letting them print.
 class FirstError final : public console_bridge::OutputHandler {
  public:
   FirstError() {
@@ -38,12 +38,16 @@ class FirstError final : public console_bridge::OutputHandler {
   FirstError(const FirstError&) = delete;
   FirstError& operator=(const FirstError&) = delete;
   void log(const std::string& text, console_bridge::LogLevel level, const char*, int) override {
-    if (level >= console_bridge::CONSOLE_BRIDGE_LOG_ERROR && message.empty()) message = text;
+    if (level < console_bridge::CONSOLE_BRIDGE_LOG_ERROR) return;
+    if (errors_ < 2) message += (message.empty() ? "" : "; ") + text;
+    ++errors_;
   }
+  bool any() const { return errors_ > 0; }
   std::string message;
 
  private:
   console_bridge::LogLevel previous_level_;
+  int errors_ = 0;
 };
 
 // `part` placed at (rotation, translation) in `body`'s frame, lumped into `body` (parallel-axis theorem).
@@ -72,8 +76,8 @@ RigidBody lump(const RigidBody& body, const RigidBody& part, const Eigen::Matrix
 // Why a body cannot be physical (a negative or non-finite mass, non-finite numbers, an inertia that is not positive
 // semidefinite), or nothing.
 std::string unphysical(const RigidBody& body) {
-  if (!std::isfinite(body.mass) || body.mass < 0.0 || !body.com.allFinite() || !body.inertia.allFinite())
-    return fmt::format("has mass {} (must be finite and >= 0)", body.mass);
+  if (!std::isfinite(body.mass) || body.mass < 0.0) return fmt::format("has mass {} (must be finite and >= 0)", body.mass);
+  if (!body.com.allFinite() || !body.inertia.allFinite()) return "has a centre of mass or inertia that is not finite";
   const double smallest = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(body.inertia).eigenvalues()(0);
   if (smallest < -1e-9 * std::max(1.0, body.inertia.norm()))
     return fmt::format("has an inertia that is not positive semidefinite (smallest principal moment {:.6g})", smallest);
@@ -324,7 +328,9 @@ void parse(const std::string& path, const std::string& source, ParsedUrdf& parse
                                  parsed.document.ErrorName()));
   FirstError error;
   parsed.robot = urdf::parseURDF(xml);
-  if (!parsed.robot) throw InputError(fmt::format("{}: not a valid URDF: {}", source, error.message));
+  // urdfdom may also log an error and go on: a number it cannot read ("nan", "1e999", "abc") in an <inertial> leaves
+  // that inertial partly zero, and the link would be read lighter than the file says.
+  if (!parsed.robot || error.any()) throw InputError(fmt::format("{}: not a valid URDF: {}", source, error.message));
 }
 
 // The chain's joints and lumped bodies along `path`, with each movable joint's name and domain. Movable joints start

@@ -7,6 +7,7 @@
 #include "obsgain/model/dynamics.hpp"
 #include "obsgain/parsers/robots.hpp"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <fstream>
@@ -217,6 +218,17 @@ TEST(Urdf, MalformedFilesAreRefusedNamingTheProblem) {
   expect_urdf_refused({write_temp_file("indefinite.urdf", with_second_link(
                      R"(<inertial><mass value="0.5"/><inertia ixx="0.001" ixy="0" ixz="0" iyy="0.001" iyz="0" izz="-0.001"/></inertial>)"))},
                  "link 'l2' has an inertia that is not positive semidefinite");
+  // urdfdom logs a number it cannot read in an <inertial> and goes on with that inertial partly zero (l2 read as
+  // moving nothing, or lighter than the file says): its error is the file's refusal, naming the element and the link.
+  for (const char* value : {"nan", "1e999", "abc"})
+    expect_urdf_refused({write_temp_file("unreadable_inertia.urdf", with_second_link(fmt::format(
+                           R"(<inertial><mass value="0.5"/><inertia ixx="{}" ixy="0" ixz="0" iyy="0.001" iyz="0" izz="0.001"/></inertial>)",
+                           value)))},
+                        "not a valid URDF: Inertial: inertia element ixx is not a valid double; Could not parse inertial "
+                        "element for Link [l2]");
+  expect_urdf_refused({write_temp_file("unreadable_origin.urdf", with_second_link(
+                     R"(<inertial><origin xyz="nan 0 0"/><mass value="0.5"/><inertia ixx="0.001" ixy="0" ixz="0" iyy="0.001" iyz="0" izz="0.001"/></inertial>)"))},
+                 "Unable to parse component [nan] to a double");
   std::string unlimited = two_links;
   unlimited.replace(unlimited.find(R"(name="j2" type="continuous")"), 27, R"(name="j2" type="revolute")");
   expect_urdf_refused({write_temp_file("unlimited.urdf", unlimited)}, "not a valid URDF: Joint [j2] is of type REVOLUTE but it does not specify limits");
