@@ -21,6 +21,7 @@ namespace {
 // The (q, discrete choice) structure shared by the three bounds: for each q, a finite family of smooth
 // functions f_c(q) (one per vertex / saturation pattern) whose maximum is the objective.
 struct BoundProblem {
+  std::string name;  // "M0", "B", "L_joint" or "L_T"
   // Evaluates max_c f_c(q); writes the maximising choice.
   std::function<double(const Eigen::VectorXd& q, int& choice)> all_choices;
   // Evaluates one f_c(q).
@@ -89,11 +90,25 @@ Eigen::LLT<Eigen::MatrixXd> factor_inertia(const Model& model, const Eigen::Vect
   return Eigen::LLT<Eigen::MatrixXd>(M);
 }
 
+// max_c f_c(q), refusing a value that is not finite: M is refused where singular, so only numbers past double's range
+// (a friction of 1e308, say) get here, and the optimisers would pass such values over without a word.
+double finite_value(const Model& model, const BoundProblem& problem, const Eigen::VectorXd& q, int& choice) {
+  const double value = problem.all_choices(q, choice);
+  if (!std::isfinite(value)) {
+    std::ostringstream msg;
+    msg << "model '" << model.name << "': " << problem.name << " is not finite at q = ("
+        << q.transpose().format(Eigen::IOFormat(6, Eigen::DontAlignCols, ", ", ", "))
+        << "): the model's numbers (masses, inertias, friction, velocity bounds) overflow double precision";
+    throw InputError(msg.str());
+  }
+  return value;
+}
+
 // Nothing to search when M and C depend on no joint (a single joint): the value at any configuration.
-BoundMaximum constant_maximum(const SearchSpace& space, const BoundProblem& problem) {
+BoundMaximum constant_maximum(const Model& model, const SearchSpace& space, const BoundProblem& problem) {
   BoundMaximum result;
   int choice = 0;
-  result.value = result.global_value = result.polish_value = problem.all_choices(space.fixed_q, choice);
+  result.value = result.global_value = result.polish_value = finite_value(model, problem, space.fixed_q, choice);
   result.global_evaluations = 1;
   result.q = space.fixed_q;
   return result;
@@ -102,12 +117,12 @@ BoundMaximum constant_maximum(const SearchSpace& space, const BoundProblem& prob
 BoundMaximum search(const Model& model, const BoundProblem& problem, const BoundOptions& options) {
   const SearchSpace space = search_space(model);
   const auto d = static_cast<int>(space.joints.size());
-  if (d == 0) return constant_maximum(space, problem);
+  if (d == 0) return constant_maximum(model, space, problem);
   BoundMaximum result;
 
   const Objective objective = [&](const Eigen::VectorXd& x) {
     int choice = 0;
-    return problem.all_choices(full_configuration(space, x), choice);
+    return finite_value(model, problem, full_configuration(space, x), choice);
   };
   const OptimumPoint global = maximize_global(objective, space.lower, space.upper,
                                               options.global_evaluations_per_dimension * std::max(d, 1));
@@ -326,6 +341,7 @@ BoundMaximum lipschitz_search(const Model& model, const Eigen::VectorXd& velocit
   const int n = model.dof();
   const unsigned vertex_count = 1u << n;
   BoundProblem lj;
+  lj.name = scaling.size() == 0 ? "L_joint" : "L_T";
   lj.all_choices = [&](const Eigen::VectorXd& q, int& choice) {
     return joint_lipschitz_maximum(model, q, velocity_bounds, scaling, choice);
   };
@@ -558,6 +574,7 @@ BoundReport compute_bounds(const Model& model, const Eigen::VectorXd& velocity_b
   report.F_norm = spectral_norm(model.friction);
 
   BoundProblem m0;
+  m0.name = "M0";
   m0.all_choices = [&](const Eigen::VectorXd& q, int& choice) {
     choice = 0;
     return inverse_inertia_norm(model, q);
@@ -566,6 +583,7 @@ BoundReport compute_bounds(const Model& model, const Eigen::VectorXd& velocity_b
   report.M0 = search(model, m0, options);
 
   BoundProblem b;
+  b.name = "B";
   b.all_choices = [&](const Eigen::VectorXd& q, int& choice) { return coriolis_jacobian_maximum(model, q, velocity_bounds, choice); };
   b.one_choice = [&](const Eigen::VectorXd& q, int c) {
     return coriolis_jacobian_norm(model, q, vertex(velocity_bounds, static_cast<unsigned>(c)));
@@ -577,7 +595,6 @@ BoundReport compute_bounds(const Model& model, const Eigen::VectorXd& velocity_b
     report.B.velocity_vertex = vertex(velocity_bounds, static_cast<unsigned>(choice));
   }
 
-  BoundProblem lj;
   report.L_joint = lipschitz_search(model, velocity_bounds, {}, options);
   if (options.diagonal_scaling && n > 1 && n <= options.scaling_max_dof) choose_scaling(model, report, options);
 

@@ -16,6 +16,15 @@ namespace {
 
 constexpr const char* kHeader = "obsgain-checkpoint 1";
 
+// The header's rules: "rules N" after kHeader (none before the rules were numbered: the first).
+int header_rules(const std::string& header) {
+  const std::string rest = header.substr(std::string(kHeader).size());
+  if (rest.empty()) return 1;
+  int rules = 0;
+  char end = 0;
+  return std::sscanf(rest.c_str(), " rules %d%c", &rules, &end) == 1 ? rules : -1;
+}
+
 // Hexadecimal floating point: every double written is read back to the bit.
 std::string hex(double x) { return fmt::format("{:a}", x); }
 
@@ -129,7 +138,12 @@ void SearchJournal::read() {
   std::string header;
   std::getline(in, header);
   Tokens t(in, path_);
-  if (header != kHeader) t.fail("does not start with '" + std::string(kHeader) + "'");
+  const int rules = header.rfind(kHeader, 0) == 0 ? header_rules(header) : -1;
+  if (rules < 0) t.fail("does not start with '" + std::string(kHeader) + "'");
+  if (rules != kSearchRules)
+    throw InputError(fmt::format("checkpoint '{}' was saved by an obsgain whose searches bound boxes by other rules "
+                                 "(rules {}, this one's {}): it cannot be continued; start again with --checkpoint",
+                                 path_, rules, kSearchRules));
   for (std::string word; in >> word && word != "end";) {
     if (word != "search") t.fail(fmt::format("has '{}' where a search belongs", word.substr(0, 20)));
     const std::string name = t.word();
@@ -148,7 +162,7 @@ void SearchJournal::write() const {
   const std::string partial = path_ + ".partial";
   {
     std::ofstream out(partial);
-    out << kHeader << '\n';
+    out << kHeader << " rules " << kSearchRules << '\n';
     for (const auto& [name, e] : entries_) {
       out << "search " << name << " request " << e.request << '\n';
       if (e.finished) {

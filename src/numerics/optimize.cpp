@@ -25,6 +25,8 @@ struct GlobalData {
 double nlopt_objective(const std::vector<double>& x, std::vector<double>& /*grad*/, void* data) {
   auto* d = static_cast<GlobalData*>(data);
   const Eigen::VectorXd point = Eigen::Map<const Eigen::VectorXd>(x.data(), static_cast<Eigen::Index>(x.size()));
+  // A step computed from values near double's range can be NaN: no configuration, so no question to the model.
+  if (!point.allFinite()) return -std::numeric_limits<double>::max();
   double value = 0.0;
   try {
     value = (*d->f)(point);
@@ -108,7 +110,8 @@ class PolishProblem final : public Ipopt::TNLP {
 
  private:
   double evaluate(const Eigen::VectorXd& x) {
-    if (error_) return std::numeric_limits<double>::quiet_NaN();
+    // After an error, or at a NaN step (from values near double's range): no value, and Ipopt steps back.
+    if (error_ || !x.allFinite()) return std::numeric_limits<double>::quiet_NaN();
     double value = 0.0;
     try {
       value = f_(x);

@@ -4,6 +4,7 @@
 
 #include <console_bridge/console.h>
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <tinyxml2.h>
 #include <urdf_parser/urdf_parser.h>
 
@@ -159,6 +160,23 @@ bool movable(const urdf::Joint& joint) {
   return joint.type == urdf::Joint::REVOLUTE || joint.type == urdf::Joint::CONTINUOUS || joint.type == urdf::Joint::PRISMATIC;
 }
 
+// A floating or planar joint: the links below it are not attached to the ones above.
+bool free_joint(const urdf::Joint& joint) {
+  return joint.type == urdf::Joint::FLOATING || joint.type == urdf::Joint::PLANAR;
+}
+
+// Above the arm's first joint a free joint is a mobile base, held fixed as the observer's model has it; below it, the
+// links under it would be lumped into the arm as if bolted on.
+void check_free_joint(const urdf::Joint& joint, bool below_arm, const std::string& source, std::vector<std::string>& held) {
+  if (!free_joint(joint)) return;
+  const char* type = joint.type == urdf::Joint::FLOATING ? "floating" : "planar";
+  if (below_arm)
+    throw InputError(fmt::format("{}: joint '{}' is {}: the links below it are not attached to the arm, and obsgain "
+                                 "models a serial chain of revolute, continuous and prismatic joints (make it fixed, "
+                                 "or end the chain above it with --tip-link)", source, joint.name, type));
+  held.push_back(fmt::format("'{}' ({})", joint.name, type));
+}
+
 // A chain joint moves freely; a mimic joint follows another and is locked with the side branches.
 bool chain_candidate(const urdf::Joint& joint) { return movable(joint) && !joint.mimic; }
 
@@ -310,6 +328,12 @@ void check_inertia(const Model& model, const std::vector<std::string>& joint_nam
   if (lambda.allFinite() && lambda(0) > 1e-10 * std::max(lambda(n - 1), 1e-300)) return;
   Eigen::Index joint = 0;
   eigen.eigenvectors().col(0).cwiseAbs().maxCoeff(&joint);
+  // A positive λmin next to a λmax past double's resolution of it (a mass of 1e308 beside one of 1) is no zero.
+  if (lambda.allFinite() && lambda(0) > 1e-300)
+    throw InputError(fmt::format("{}: M(q) is numerically singular: its smallest eigenvalue {:.3g} (mostly joint "
+                                 "'{}') is below 1e-10 of its largest, {:.3g} (check the <inertial> of the links after "
+                                 "that joint, and the masses beside them)",
+                                 source, lambda(0), joint_names[joint], lambda(n - 1)));
   throw InputError(fmt::format("{}: M(q) is singular: joint '{}' moves no mass or inertia (check the <inertial> "
                                "of the links after it)",
                                source, joint_names[joint]));
@@ -341,6 +365,7 @@ struct BuiltChain {
   std::vector<std::string> joint_names;
   std::vector<JointDomain> domains;
   std::vector<std::string> locked;
+  std::vector<std::string> held_fixed;  // free joints above the arm (a mobile base)
 };
 
 BuiltChain build_chain(const urdf::ModelInterface& robot, const std::string& base,
@@ -356,6 +381,7 @@ BuiltChain build_chain(const urdf::ModelInterface& robot, const std::string& bas
     if (!chain.bodies.empty()) chain.bodies.back() = lump(chain.bodies.back(), link_body(link, source), T.linear(), T.translation());
     for (const auto& joint : link.child_joints) {
       if (on_path.count(joint->name)) continue;
+      check_free_joint(*joint, !chain.bodies.empty(), source, built.held_fixed);
       const double position = movable(*joint) ? locked_position(robot, *joint) : 0.0;
       if (movable(*joint) && !chain.bodies.empty()) built.locked.push_back(fmt::format("'{}' at {:.4g}", joint->name, position));
       lump_subtree(*robot.getLink(joint->child_link_name), T * joint_transform(*joint, position));
@@ -363,6 +389,7 @@ BuiltChain build_chain(const urdf::ModelInterface& robot, const std::string& bas
   };
   lump_subtree(*robot.getLink(base), placement);
   for (const auto& joint : path) {
+    check_free_joint(*joint, !chain.joints.empty(), source, built.held_fixed);
     if (chain_candidate(*joint)) {
       ChainJoint c;
       c.name = joint->name;
@@ -484,6 +511,8 @@ Model load_urdf(const RobotSource& options) {
     for (const auto& item : built.locked) list += (list.empty() ? "" : ", ") + item;
     model.notes.push_back(fmt::format("locked and lumped into the chain's bodies: {} (middle of range, or as <mimic> says)", list));
   }
+  if (!built.held_fixed.empty())
+    model.notes.push_back(fmt::format("held fixed (the arm's base does not move): {}", fmt::join(built.held_fixed, ", ")));
   model.notes.insert(model.notes.begin(), fmt::format("chain: {} joints from '{}' to '{}'", n, base,
                                                       path.empty() ? base : path.back()->child_link_name));
   model.joints = built.domains;

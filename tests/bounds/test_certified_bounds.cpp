@@ -1,7 +1,9 @@
 #include "json.hpp"
+#include "obsgain/bounds/box_bounds.hpp"
 #include "obsgain/bounds/certified_bounds.hpp"
 #include "obsgain/bounds/enclosures.hpp"
 #include "obsgain/bounds/perturbation_polytope.hpp"
+#include "obsgain/bounds/search_journal.hpp"
 #include "obsgain/design/design.hpp"
 #include "obsgain/model/dynamics.hpp"
 #include "obsgain/numerics/spectrum.hpp"
@@ -385,7 +387,38 @@ TEST(ArmBrackets, ResumedSearchesEndAsSearchesNeverStopped) {
   } catch (const obsgain::InputError& e) {
     EXPECT_NE(std::string(e.what()).find("was saved for another request"), std::string::npos) << e.what();
   }
-  std::ofstream(path) << "obsgain-checkpoint 1\nsearch M0 request x\nstate 1 2 three\n";
+  std::ofstream(path) << "obsgain-checkpoint 1 rules " << obsgain::kSearchRules << "\nsearch M0 request x\nstate 1 2 three\n";
   EXPECT_THROW(obsgain::SearchJournal(path, true), obsgain::InputError);
+  // Saved by an obsgain of other search rules (before they were numbered, the header had none): refused, by name.
+  for (const char* header : {"obsgain-checkpoint 1", "obsgain-checkpoint 1 rules 1"}) {
+    std::ofstream(path) << header << "\nend\n";
+    try {
+      obsgain::SearchJournal old(path, true);
+      ADD_FAILURE() << "a checkpoint of other search rules was accepted: " << header;
+    } catch (const obsgain::InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("by other rules (rules 1, this one's"), std::string::npos) << e.what();
+    }
+  }
   EXPECT_THROW(obsgain::SearchJournal(path + ".missing", true), obsgain::InputError);
+}
+
+// The search rules' number (kSearchRules) guards a resumed search against boxes bounded by other rules. Any change to
+// how a box is bounded or split moves these (to the last digits at least): when this fails, raise kSearchRules in
+// bounds/search_journal.hpp with the new values, so that older checkpoints are refused.
+TEST(SearchRules, PinTheBoxBoundsTheirNumberStandsFor) {
+  ASSERT_EQ(obsgain::kSearchRules, 2) << "raised: re-pin the values below from this version";
+  const obsgain::Model arm = obsgain::load_robot({examples + "/arm3.urdf"});
+  const obsgain::JointSearch search = obsgain::joint_search(arm, obsgain::configuration_joints(arm));
+  const obsgain::BoxBounds boxes(arm, search, arm.velocity_bounds);
+  std::vector<obsgain::Interval> box;
+  for (const obsgain::Interval& side : search.domain)
+    box.emplace_back(side.lower() + 0.3 * (side.upper() - side.lower()), side.lower() + 0.32 * (side.upper() - side.lower()));
+  const auto expect_pinned = [](const obsgain::BoxBound& b, double upper, std::size_t side) {
+    EXPECT_NEAR(b.upper, upper, 1e-12 * upper);
+    const auto widest = std::max_element(b.split_weight.begin(), b.split_weight.end()) - b.split_weight.begin();
+    EXPECT_EQ(static_cast<std::size_t>(widest), side);
+  };
+  expect_pinned(boxes.inverse_inertia(box), 88.67536511659533, 0);
+  expect_pinned(boxes.jacobian(box, 0.0), 0.98501672253447714, 1);
+  expect_pinned(boxes.joint_lipschitz(box, 0.0), 27.299118869991393, 0);
 }

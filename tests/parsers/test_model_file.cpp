@@ -138,4 +138,22 @@ TEST(ModelFile, WithoutVelocityBoundsTheDesignAsksForThem) {
   EXPECT_TRUE(obsgain::design_gains(model, options).selected().observer.certified);
 }
 
+// A friction of 1e308 is finite, but M⁻¹F overflows: every value of L_joint was infinite, the optimisers kept no point,
+// and the search read an empty one (a segmentation fault). The bound's overflow is now the model's refusal.
+TEST(ModelFile, NumbersThatOverflowTheBoundsAreRefusedNamingTheBound) {
+  auto j = valid();
+  j["friction"] = {0.5, 1e308};
+  const obsgain::Model model = obsgain::model_from_json_text(j.dump(), "arm.json");
+  try {
+    obsgain::compute_bounds(model, Eigen::Vector2d(3, 4));
+    FAIL();
+  } catch (const obsgain::InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("L_joint is not finite at q = ("), std::string::npos) << e.what();
+  }
+  j["friction"] = {0.5, 1e100};  // large, and its squares still within double's range: a bound, M⁻¹F's
+  const obsgain::BoundReport large = obsgain::compute_bounds(obsgain::model_from_json_text(j.dump(), "arm.json"), Eigen::Vector2d(3, 4));
+  EXPECT_NEAR(large.F_norm, 1e100, 1e86);
+  EXPECT_GT(large.L_joint.value, 1e100 / large.M0.value);
+}
+
 }  // namespace

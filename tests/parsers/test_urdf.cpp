@@ -198,6 +198,12 @@ TEST(Urdf, MalformedFilesAreRefusedNamingTheProblem) {
   expect_urdf_refused({good, "", "", {1, 2}}, "flag 2 = 2 must be 0 or 1");
   // The last link carries nothing: joint j2 moves no inertia and M(q) is singular.
   expect_urdf_refused({write_temp_file("massless.urdf", with_second_link(""))}, "joint 'j2' moves no mass or inertia");
+  // A mass of 1e308 beside one of 0.5: M's smallest eigenvalue is positive, and far below double's resolution of the
+  // largest (said so, not that the joint moves nothing).
+  std::string heavy = with_second_link(
+      R"(<inertial><origin xyz="0.1 0 0"/><mass value="0.5"/><inertia ixx="0.001" ixy="0" ixz="0" iyy="0.001" iyz="0" izz="0.001"/></inertial>)");
+  heavy.replace(heavy.find(R"(<mass value="1"/>)"), 17, R"(<mass value="1e308"/>)");
+  expect_urdf_refused({write_temp_file("heavy.urdf", heavy)}, "M(q) is numerically singular: its smallest eigenvalue");
   expect_urdf_refused({write_temp_file("zero_mass.urdf", with_second_link(
                      R"(<inertial><mass value="0"/><inertia ixx="0" ixy="0" ixz="0" iyy="0" iyz="0" izz="0"/></inertial>)"))},
                  "joint 'j2' moves no mass or inertia");
@@ -233,6 +239,41 @@ TEST(Urdf, MalformedFilesAreRefusedNamingTheProblem) {
   unlimited.replace(unlimited.find(R"(name="j2" type="continuous")"), 27, R"(name="j2" type="revolute")");
   expect_urdf_refused({write_temp_file("unlimited.urdf", unlimited)}, "not a valid URDF: Joint [j2] is of type REVOLUTE but it does not specify limits");
   expect_urdf_refused({examples + "/pendubot.json", "", "", {1, 0}}, "apply to URDF robots only");
+}
+
+// A floating or planar joint between the arm's joints was held fixed without a word: the links below it were lumped
+// into the arm as if bolted on, and the design was for another robot. Above the arm (a mobile base) it is held fixed
+// and said so; anywhere below the first joint the file is refused.
+TEST(Urdf, FreeJointsHoldTheBaseFixedAndAreRefusedWithinTheArm) {
+  const std::string inertial =
+      R"(<inertial><origin xyz="0.1 0 0"/><mass value="0.5"/><inertia ixx="0.001" ixy="0" ixz="0" iyy="0.001" iyz="0" izz="0.001"/></inertial>)";
+  const obsgain::Model fixed_base = obsgain::load_robot({write_temp_file("fixed_base.urdf", with_second_link(inertial))});
+  for (const char* type : {"floating", "planar"}) {
+    std::string mobile = with_second_link(inertial);
+    mobile.replace(mobile.find(R"(<link name="base"/>)"), 19,
+                   fmt::format(R"(<link name="world"/><joint name="mount" type="{}"><parent link="world"/>)"
+                               R"(<child link="base"/></joint><link name="base"/>)", type));
+    const obsgain::Model model = obsgain::load_robot({write_temp_file("mobile_base.urdf", mobile)});
+    ASSERT_EQ(model.dof(), 2);
+    const auto note = std::find_if(model.notes.begin(), model.notes.end(),
+                                   [](const std::string& n) { return n.find("held fixed") != std::string::npos; });
+    ASSERT_NE(note, model.notes.end());
+    EXPECT_NE(note->find(fmt::format("'mount' ({})", type)), std::string::npos) << *note;
+    Eigen::MatrixXd M(2, 2), M_fixed(2, 2);
+    obsgain::mass_matrix(model, Eigen::Vector2d(0.4, 1.1), M);
+    obsgain::mass_matrix(fixed_base, Eigen::Vector2d(0.4, 1.1), M_fixed);
+    EXPECT_LT((M - M_fixed).norm(), 1e-15);
+
+    std::string within = with_second_link(inertial);
+    within.replace(within.find(R"(name="j2" type="continuous")"), 27, fmt::format(R"(name="j2" type="{}")", type));
+    expect_urdf_refused({write_temp_file("free_within.urdf", within)},
+                        fmt::format("joint 'j2' is {}: the links below it are not attached to the arm", type));
+    std::string below = with_second_link(inertial);
+    below.replace(below.find("</robot>"), 8, fmt::format(R"(<joint name="held" type="{}"><parent link="l2"/>)"
+                                                          R"(<child link="object"/></joint><link name="object">{}</link></robot>)",
+                                                          type, inertial));
+    expect_urdf_refused({write_temp_file("free_below.urdf", below)}, fmt::format("joint 'held' is {}", type));
+  }
 }
 
 }  // namespace
