@@ -24,6 +24,13 @@ const Eigen::VectorXd& joint_values(const Model& model, const Eigen::VectorXd& v
   return values;
 }
 
+// What the dynamics return, or ValueError when it left double's range (a tau of 1e308): NaNs are no answer.
+template <class Result>
+Result finite_result(Result x, const char* what) {
+  if (!x.allFinite()) throw InputError(fmt::format("{} overflows double precision at these arguments", what));
+  return x;
+}
+
 // joint_limits: one entry per joint, (lower, upper) or "c" for the full circle.
 std::vector<JointDomain> joint_domains(const py::list& limits) {
   std::vector<JointDomain> domains;
@@ -72,7 +79,7 @@ void bind_dynamics(py::class_<Robot>& robot) {
           [](const Robot& r, const Eigen::VectorXd& q) {
             Eigen::MatrixXd M(r.model->dof(), r.model->dof());
             mass_matrix(*r.model, joint_values(*r.model, q, "q"), M);
-            return M;
+            return finite_result(M, "M(q)");
           },
           py::arg("q"), "M(q), the n x n inertia matrix (with the armature on its diagonal).")
       .def(
@@ -80,7 +87,7 @@ void bind_dynamics(py::class_<Robot>& robot) {
           [](const Robot& r, const Eigen::VectorXd& q, const Eigen::VectorXd& v) {
             Eigen::VectorXd A(r.model->dof());
             coriolis(*r.model, joint_values(*r.model, q, "q"), joint_values(*r.model, v, "v"), A);
-            return A;
+            return finite_result(A, "A(q, v)");
           },
           py::arg("q"), py::arg("v"), "A(q, v) = C(q, v) v, the Coriolis and centrifugal forces.")
       .def(
@@ -88,7 +95,7 @@ void bind_dynamics(py::class_<Robot>& robot) {
           [](const Robot& r, const Eigen::VectorXd& q) {
             Eigen::VectorXd g(r.model->dof());
             gravity(*r.model, joint_values(*r.model, q, "q"), g);
-            return g;
+            return finite_result(g, "g(q)");
           },
           py::arg("q"), "g(q), the gravity forces.")
       .def(
@@ -98,7 +105,7 @@ void bind_dynamics(py::class_<Robot>& robot) {
             Eigen::VectorXd qdd(r.model->dof());
             forward_dynamics(*r.model, joint_values(*r.model, q, "q"), joint_values(*r.model, v, "v"),
                              joint_values(*r.model, tau, "tau"), qdd, work);
-            return qdd;
+            return finite_result(qdd, "q''");
           },
           py::arg("q"), py::arg("v"), py::arg("tau"), "q'' = M(q)⁻¹ (tau - A(q, v) - F v - g(q)), tau = H u.");
 }

@@ -41,8 +41,8 @@ py::tuple update(PyObserver& o, const Eigen::VectorXd& q, const Eigen::VectorXd&
   require_size(u, o.model->input_matrix.cols(), "u");
   const Observer::Estimate e = o.observer->update(q, u, dt);
   if (!e.accepted)
-    throw InputError(fmt::format("Observer.update refused the sample: reset() first, finite q and u, dt = {} > 0 and "
-                                 "at most {} sub-steps", dt, Observer::max_substeps));
+    throw InputError(fmt::format("Observer.update refused the sample: reset() first, finite q and u whose integration "
+                                 "stays finite, dt = {} > 0 and at most {} sub-steps", dt, Observer::max_substeps));
   return py::make_tuple(Eigen::VectorXd(e.position), Eigen::VectorXd(e.velocity));  // copies: the class reuses its buffers
 }
 

@@ -165,12 +165,20 @@ Observer::Estimate Observer::update(const Eigen::Ref<const Eigen::VectorXd>& q_m
     for (Eigen::Index c = 0; c < u.size(); ++c) force += model_.input_matrix(i, c) * u(c);
     Hu_[i] = force;
   }
+  std::copy_n(q_hat_.data(), n_, q_before_.begin());
+  std::copy_n(v_hat_.data(), n_, v_before_.begin());
   // The sizes of the planar family and of the common arms are compiled in (0: any other).
   switch (n_) {
     case 2: integrate<2>(dt, steps); break;
     case 6: integrate<6>(dt, steps); break;
     case 7: integrate<7>(dt, steps); break;
     default: integrate<0>(dt, steps); break;
+  }
+  if (!q_hat_.allFinite() || !v_hat_.allFinite()) {
+    std::copy_n(q_before_.begin(), n_, q_hat_.data());
+    std::copy_n(v_before_.begin(), n_, v_hat_.data());
+    last_instant_ = -1;  // the instants hold this sample's measurement: the next update starts from y_previous_ again
+    return {q_hat_, v_hat_, false};
   }
   y_previous_ = y_current_;
   return {q_hat_, v_hat_, true};

@@ -67,6 +67,11 @@ def test_python_level_mistakes_are_named(pendubot, design):
         obsgain.design_gains(pendubot, gamma="fast")
     with pytest.raises(ValueError, match="q has 3 values for a robot of 2 joints"):
         pendubot.mass_matrix([0, 0, 0])
+    # Finite arguments whose result leaves double's range: an error, not NaNs.
+    with pytest.raises(ValueError, match="q'' overflows double precision"):
+        pendubot.forward_dynamics([0, 0], [0, 0], [1e308, -1e308])
+    with pytest.raises(ValueError, match=r"A\(q, v\) overflows double precision"):
+        pendubot.coriolis([0, 1], [1e200, 1e200])
     with pytest.raises(ValueError, match="must be positive"):
         obsgain.tight_rate(-1, 1, 1)
     with pytest.raises(ValueError, match="not valid JSON"):

@@ -280,9 +280,19 @@ TEST(Observer, RefusesBadInputAndKeepsItsState) {
   EXPECT_FALSE(observer.update(Eigen::Vector2d(0.1, 0.2), kInput, -1e18).accepted);
   EXPECT_FALSE(observer.update(Eigen::Vector2d(0.1, 0.2), kInput, 1e9).accepted);  // beyond max_substeps
   EXPECT_FALSE(observer.update(Eigen::Vector3d(0.1, 0.2, 0.3), kInput, 1e-3).accepted);
+  // Finite samples whose integration leaves double's range: the state was NaN from there on, and every later sample
+  // answered with NaNs.
+  EXPECT_FALSE(observer.update(Eigen::Vector2d(0.1, 0.2), Eigen::Vector2d(1e308, 0.0), 1e-3).accepted);
+  EXPECT_FALSE(observer.update(Eigen::Vector2d(1e308, 0.2), kInput, 1e-3).accepted);
   EXPECT_EQ(observer.position(), q);
   EXPECT_EQ(observer.velocity(), v);
-  EXPECT_TRUE(observer.update(Eigen::Vector2d(0.1, 0.2), kInput, 1e-3).accepted);
+  // The next sample is answered as by an observer that never saw the refused ones, to the bit.
+  Observer fresh(model, pendubot_gains());
+  ASSERT_TRUE(fresh.reset(Eigen::Vector2d(0.1, 0.2)));
+  ASSERT_TRUE(fresh.update(Eigen::Vector2d(0.11, 0.19), kInput, 1e-3).accepted);
+  EXPECT_TRUE(observer.update(Eigen::Vector2d(0.11, 0.19), kInput, 1e-3).accepted);
+  EXPECT_EQ(observer.position(), fresh.position());
+  EXPECT_EQ(observer.velocity(), fresh.velocity());
   EXPECT_THROW(Observer(model, gains(-1.0, 1.0, 0.0, Eigen::Vector2d(1, 1))), InputError);
   EXPECT_THROW(Observer(model, gains(1.0, 1.0, 0.0, Eigen::Vector3d(1, 1, 1))), InputError);
   EXPECT_THROW(Observer(model, pendubot_gains(), -1), InputError);

@@ -8,7 +8,8 @@
 // Real-time use: every buffer is sized at construction; update() and reset() allocate nothing, throw nothing,
 // and take a bounded time (at most max_substeps sub-steps). Invalid input (an update before the first reset(),
 // a size mismatch, NaN, dt <= 0 or a dt needing more than max_substeps sub-steps) is refused: the state is left
-// unchanged and `accepted` is false.
+// unchanged and `accepted` is false. So is a sample whose integration leaves double's range (finite inputs such as a
+// u of 1e308): a state of NaNs would answer every later sample with NaNs.
 #pragma once
 
 #include "obsgain/model/dynamics.hpp"
@@ -90,6 +91,7 @@ class Observer {
   int n_;
   Joints lower_{}, upper_{};  // joint limits (±∞ for continuous joints)
   Eigen::VectorXd q_hat_, v_hat_;
+  Joints q_before_{}, v_before_{};  // the state before an update, restored when it is refused
   Joints y_previous_{}, y_current_{}, Hu_{};
   Instant start_, middle_, end_;
   // Which of start_ (0) and end_ (1) holds the model at the last measurement (-1: none since reset): the next
