@@ -41,10 +41,21 @@ std::string file_fingerprint(const std::string& path) {
   return fmt::format("fnv1a64:{:016x}", hash);
 }
 
+// Names and notes are one-line labels: the exported header's comments, the ROS 2 file and the runtime's observer file
+// are written line by line, and a newline in a URDF's robot name (`&#10;`) broke them. Control characters become
+// spaces.
+std::string one_line(std::string text) {
+  for (char& c : text)
+    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) c = ' ';
+  return text;
+}
+
 }  // namespace
 
 Model load_robot(const RobotSource& source) {
   Model model = load(source);
+  model.name = one_line(model.name);
+  for (std::string& note : model.notes) note = one_line(note);
   model.source = source;
   model.fingerprint = source.robot.ends_with(".json") || source.robot.ends_with(".urdf") ? file_fingerprint(source.robot)
                                                                                           : "built-in";

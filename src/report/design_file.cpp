@@ -3,6 +3,10 @@
 #include "obsgain/deployment/deployment.hpp"
 #include "json.hpp"
 
+#include <fmt/format.h>
+
+#include <cmath>
+
 namespace obsgain {
 
 namespace {
@@ -36,6 +40,25 @@ Eigen::VectorXd vector_of(const nlohmann::json& values, Eigen::Index size, const
   return Eigen::Map<const Eigen::VectorXd>(v.data(), static_cast<Eigen::Index>(v.size()));
 }
 
+// A number the observer needs positive (and finite), or the file's refusal naming it.
+double positive(const nlohmann::json& design, const char* key) {
+  const double x = design.at(key).get<double>();
+  if (!(x > 0.0) || !std::isfinite(x)) throw InputError(fmt::format("design.{} = {} must be positive", key, x));
+  return x;
+}
+
+// What design-gains writes holds together: k1 = θα and k2 = θ²β (to rounding), L >= 0 and P symmetric positive
+// definite. An edited file that breaks them is no certificate to validate: a P of −I passed every Lyapunov check.
+void check_consistent(const CertifiedObserver& o) {
+  const auto close = [](double x, double y) { return std::abs(x - y) <= 1e-12 * std::abs(y); };
+  if (!close(o.k1, o.theta * o.alpha) || !close(o.k2, o.theta * o.theta * o.beta))
+    throw InputError(fmt::format("design.k1 = {} and k2 = {} must be theta alpha and theta^2 beta (theta = {}, alpha "
+                                 "= {}, beta = {})", o.k1, o.k2, o.theta, o.alpha, o.beta));
+  if (!(o.L >= 0.0) || !std::isfinite(o.L)) throw InputError(fmt::format("design.L = {} must be >= 0", o.L));
+  if (!o.P.allFinite() || !o.P.isApprox(o.P.transpose(), 1e-12) || Eigen::LLT<Eigen::MatrixXd>(o.P).info() != Eigen::Success)
+    throw InputError("design.P must be symmetric positive definite");
+}
+
 CertifiedObserver certified_observer(const nlohmann::json& j, const Eigen::VectorXd& V) {
   const nlohmann::json& d = j.at("design");
   if (!d.at("certified").get<bool>()) throw InputError("the saved design is not certified: nothing to validate");
@@ -45,11 +68,11 @@ CertifiedObserver certified_observer(const nlohmann::json& j, const Eigen::Vecto
   const std::optional<CertificateKind> certificate = certificate_kind(kind);
   if (!certificate) throw InputError("design.certificate '" + kind + "' is not one of paper, tight, scaled, polytopic");
   o.certificate = *certificate;
-  o.alpha = d.at("alpha").get<double>();
-  o.beta = d.at("beta").get<double>();
-  o.theta = d.at("theta").get<double>();
-  o.k1 = d.at("k1").get<double>();
-  o.k2 = d.at("k2").get<double>();
+  o.alpha = positive(d, "alpha");
+  o.beta = positive(d, "beta");
+  o.theta = positive(d, "theta");
+  o.k1 = positive(d, "k1");
+  o.k2 = positive(d, "k2");
   o.gamma = d.at("envelope_gamma").get<double>();
   o.k = d.at("k").get<double>();
   o.L = d.value("L", j.at("bounds").at("L_used").get<double>());  // designs saved before "L" was written: L_used
@@ -63,6 +86,7 @@ CertifiedObserver certified_observer(const nlohmann::json& j, const Eigen::Vecto
     if (P[r].size() != size) throw InputError("design.P must be square");
     for (std::size_t c = 0; c < size; ++c) o.P(static_cast<Eigen::Index>(r), static_cast<Eigen::Index>(c)) = P[r][c];
   }
+  check_consistent(o);
   return o;
 }
 

@@ -135,6 +135,18 @@ TEST(MonteCarloApp, DesignFileIsTheWholeTruth) {
   renamed["design"]["certificate"] = "sos";  // not a certificate this version knows: not read as another one
   expect_refused("--design " + write_temp_file("obsgain_unknown_certificate.json", renamed.dump()) + " --trials 2",
                  "design.certificate 'sos' is not one of", "monte-carlo");
+  // An edited design that no longer holds together is no certificate to validate: a k1 of −1 was simulated and
+  // reported as a violated certificate (exit 1), and a P of −I passed every Lyapunov check.
+  const auto edited = [&](const char* key, const nlohmann::json& value) {
+    nlohmann::json j = nlohmann::json::parse(read_text(design));
+    j["design"][key] = value;
+    return "--design " + write_temp_file("obsgain_edited_design.json", j.dump()) + " --trials 2";
+  };
+  expect_refused(edited("k1", -1), "design.k1 = -1 must be positive", "monte-carlo");
+  expect_refused(edited("theta", 10), "design.k1 = ", "monte-carlo");
+  expect_refused(edited("L", -1), "design.L = -1 must be >= 0", "monte-carlo");
+  expect_refused(edited("P", nlohmann::json::parse("[[-1,0,0,0],[0,-1,0,0],[0,0,-1,0],[0,0,0,-1]]")),
+                 "design.P must be symmetric positive definite", "monte-carlo");
   std::ofstream(model, std::ios::app) << "\n";  // the same robot, but the file changed: the design may be stale
   expect_refused("--design " + design + " --trials 2", "run design-gains again", "monte-carlo");
 }

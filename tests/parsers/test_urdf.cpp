@@ -6,6 +6,7 @@
 #include "obsgain/validation/montecarlo.hpp"
 #include "obsgain/model/dynamics.hpp"
 #include "obsgain/parsers/robots.hpp"
+#include "obsgain/runtime/exported_observer.hpp"
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
@@ -239,6 +240,25 @@ TEST(Urdf, MalformedFilesAreRefusedNamingTheProblem) {
   unlimited.replace(unlimited.find(R"(name="j2" type="continuous")"), 27, R"(name="j2" type="revolute")");
   expect_urdf_refused({write_temp_file("unlimited.urdf", unlimited)}, "not a valid URDF: Joint [j2] is of type REVOLUTE but it does not specify limits");
   expect_urdf_refused({examples + "/pendubot.json", "", "", {1, 0}}, "apply to URDF robots only");
+}
+
+// A newline in a URDF's robot name (&#10;) ended the exported header's comment line, so that the header did not
+// compile, and split the runtime's observer file. Names and notes are one-line labels.
+TEST(Urdf, NamesWithControlCharactersBecomeOneLine) {
+  std::string text = with_second_link(
+      R"(<inertial><origin xyz="0.1 0 0"/><mass value="0.5"/><inertia ixx="0.001" ixy="0" ixz="0" iyy="0.001" iyz="0" izz="0.001"/></inertial>)");
+  text.replace(text.find(R"(<robot name="r">)"), 16, R"(<robot name="arm &quot;x&quot;&#10;two&#9;three">)");
+  const obsgain::Model model = obsgain::load_robot({write_temp_file("named.urdf", text)});
+  EXPECT_EQ(model.name, "arm \"x\" two three");
+  obsgain::CertifiedObserver gains;
+  gains.k1 = 10.0;
+  gains.k2 = 100.0;
+  gains.velocity_bounds = Eigen::Vector2d(1.0, 1.0);  // the file gives none
+  gains.P = Eigen::Matrix4d::Identity();
+  const obsgain::ExportedObserver back =
+      obsgain::read_exported_observer(obsgain::exported_observer_text({model, gains, 1, 1e-3}));
+  EXPECT_EQ(back.model.name, model.name);
+  EXPECT_EQ(back.observer.k2, 100.0);
 }
 
 // A floating or planar joint between the arm's joints was held fixed without a word: the links below it were lumped
