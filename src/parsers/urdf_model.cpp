@@ -457,16 +457,22 @@ Eigen::VectorXd chain_armature(const tinyxml2::XMLDocument& document, const std:
     return armature;
   }
   const auto from_file = transmission_armature(document, source);
-  std::string list;
-  for (int i = 0; i < n; ++i)
-    if (const auto it = from_file.find(names[i]); it != from_file.end()) {
-      armature(i) = it->second;
-      list += (list.empty() ? "" : ", ") + names[i];
-    }
-  if (!list.empty())
+  std::vector<std::string> given, missing;
+  for (int i = 0; i < n; ++i) {
+    const auto it = from_file.find(names[i]);
+    (it != from_file.end() ? given : missing).push_back(names[i]);
+    if (it != from_file.end()) armature(i) = it->second;
+  }
+  if (!given.empty())
     notes.push_back(fmt::format("armature of {} from the file's transmissions (drake:gear_ratio² × drake:rotor_inertia); "
                                 "--armature overrides",
-                                list));
+                                fmt::join(given, ", ")));
+  // Most published URDFs give none (a <mechanicalReduction> is not an inertia), and without it the bounds and θ of a
+  // geared arm are those of another robot (docs/robots.md, "Rotor inertia matters").
+  if (!missing.empty())
+    notes.push_back(fmt::format("no rotor inertia in the file for {} (armature 0): a geared joint's reflected rotor "
+                                "inertia, gear ratio² × rotor inertia, dominates M at the wrist; give it with --armature",
+                                given.empty() ? std::string("any joint") : fmt::format("{}", fmt::join(missing, ", "))));
   return armature;
 }
 

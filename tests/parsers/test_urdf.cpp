@@ -268,6 +268,17 @@ TEST(Urdf, FreeJointsHoldTheBaseFixedAndAreRefusedWithinTheArm) {
   const std::string inertial =
       R"(<inertial><origin xyz="0.1 0 0"/><mass value="0.5"/><inertia ixx="0.001" ixy="0" ixz="0" iyy="0.001" iyz="0" izz="0.001"/></inertial>)";
   const obsgain::Model fixed_base = obsgain::load_robot({write_temp_file("fixed_base.urdf", with_second_link(inertial))});
+  // Nothing in the file gives a rotor inertia: said so, with what to do (and nothing said once --armature gives it).
+  const auto armature_note = [](const obsgain::Model& m) {
+    return std::count_if(m.notes.begin(), m.notes.end(), [](const std::string& n) {
+      return n.find("no rotor inertia in the file for any joint (armature 0)") != std::string::npos &&
+             n.find("give it with --armature") != std::string::npos;
+    });
+  };
+  EXPECT_EQ(armature_note(fixed_base), 1);
+  obsgain::RobotSource with_armature{write_temp_file("fixed_base.urdf", with_second_link(inertial))};
+  with_armature.armature = {0.1, 0.1};
+  EXPECT_EQ(armature_note(obsgain::load_robot(with_armature)), 0);
   for (const char* type : {"floating", "planar"}) {
     std::string mobile = with_second_link(inertial);
     mobile.replace(mobile.find(R"(<link name="base"/>)"), 19,
