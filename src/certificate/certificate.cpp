@@ -67,7 +67,10 @@ double tight_theta_star(double alpha, double beta, double gamma, double L) {
   double hi = 1.0;
   while (rate(hi) < gamma) {
     hi *= 2.0;
-    if (hi > 1e150) throw InputError(fmt::format("no gain theta up to 1e150 certifies gamma = {} with L = {}", gamma, L));
+    // The peak's closed form squares k2: past k1, k2 = 1e150 it overflows, and the bisection ended on a θ* of 1e77
+    // that nothing had certified (an L of 1e101, from a friction of 1e100).
+    if (hi * alpha > 1e150 || hi * hi * beta > 1e150)
+      throw InputError(fmt::format("no gain theta with k1, k2 up to 1e150 certifies gamma = {} with L = {:.6g}", gamma, L));
   }
   double lo = hi / 2.0;
   while (lo > 1e-12 && rate(lo) >= gamma) lo /= 2.0;

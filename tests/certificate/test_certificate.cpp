@@ -1,5 +1,6 @@
 #include "obsgain/certificate/certificate.hpp"
 #include "obsgain/certificate/lyapunov.hpp"
+#include "obsgain/model/input_error.hpp"
 #include "obsgain/numerics/spectrum.hpp"
 
 #include <gtest/gtest.h>
@@ -23,6 +24,23 @@ TEST(PaperCertificate, ThetaStarWithBothLipschitzConstants) {
 TEST(TightCertificate, PaperGainsAndPaperL) {
   EXPECT_NEAR(obsgain::tight_rate(200.0, 40000.0, kPaperL), 66.0097, 1e-5 * 66.0097);
   EXPECT_NEAR(obsgain::tight_theta_star(1.0, 1.0, 1.27, kPaperL), 81.2964, 1e-5 * 81.2964);
+}
+
+// For γ far below L, θ* grows as L (1.46789 L at γ = 2, α = β = 1), until k2 = θ² passes 1e150: there the peak's
+// closed form overflowed and the bisection ended on a θ* of 1e77 for an L of 1e101, certified by nothing. Refused.
+TEST(TightCertificate, ExtremeLipschitzConstantsScaleOrAreRefused) {
+  for (const double L : {1e10, 1e30, 1e60}) {
+    const double theta = obsgain::tight_theta_star(1.0, 1.0, 2.0, L);
+    EXPECT_NEAR(theta / L, 1.46789, 1e-5) << L;
+    EXPECT_GE(obsgain::tight_rate(theta, theta * theta, L), 2.0);
+    EXPECT_LT(obsgain::tight_rate(0.99 * theta, 0.99 * 0.99 * theta * theta, L), 2.0);
+  }
+  try {
+    obsgain::tight_theta_star(1.0, 1.0, 2.0, 1e101);
+    ADD_FAILURE() << "a theta* was returned for L = 1e101";
+  } catch (const obsgain::InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("up to 1e150 certifies gamma = 2 with L = 1e+101"), std::string::npos) << e.what();
+  }
 }
 
 // Closed-form peak against a dense frequency sweep refined locally (a sweep can only be below the true peak).
