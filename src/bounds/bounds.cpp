@@ -68,11 +68,16 @@ Eigen::VectorXd wrap_configuration(const Model& model, Eigen::VectorXd q) {
   return q;
 }
 
-[[noreturn]] void singular_inertia(const Model& model, const Eigen::VectorXd& q) {
+// The model's refusal at a configuration: "model 'name': <what> at q = (...)<why>".
+[[noreturn]] void refuse_at(const Model& model, const std::string& what, const Eigen::VectorXd& q, const std::string& why) {
   std::ostringstream msg;
-  msg << "model '" << model.name << "': inertia matrix M(q) is singular or indefinite at q = ("
-      << q.transpose().format(Eigen::IOFormat(6, Eigen::DontAlignCols, ", ", ", ")) << ")";
+  msg << "model '" << model.name << "': " << what << " at q = ("
+      << q.transpose().format(Eigen::IOFormat(6, Eigen::DontAlignCols, ", ", ", ")) << ")" << why;
   throw InputError(msg.str());
+}
+
+[[noreturn]] void singular_inertia(const Model& model, const Eigen::VectorXd& q) {
+  refuse_at(model, "inertia matrix M(q) is singular or indefinite", q, "");
 }
 
 // Eigenvalues of M(q), refusing a numerically singular or indefinite M: the bounds would be meaningless.
@@ -94,13 +99,9 @@ Eigen::LLT<Eigen::MatrixXd> factor_inertia(const Model& model, const Eigen::Vect
 // (a friction of 1e308, say) get here, and the optimisers would pass such values over without a word.
 double finite_value(const Model& model, const BoundProblem& problem, const Eigen::VectorXd& q, int& choice) {
   const double value = problem.all_choices(q, choice);
-  if (!std::isfinite(value)) {
-    std::ostringstream msg;
-    msg << "model '" << model.name << "': " << problem.name << " is not finite at q = ("
-        << q.transpose().format(Eigen::IOFormat(6, Eigen::DontAlignCols, ", ", ", "))
-        << "): the model's numbers (masses, inertias, friction, velocity bounds) overflow double precision";
-    throw InputError(msg.str());
-  }
+  if (!std::isfinite(value))
+    refuse_at(model, problem.name + " is not finite", q,
+              ": the model's numbers (masses, inertias, friction, velocity bounds) overflow double precision");
   return value;
 }
 

@@ -513,9 +513,8 @@ Model load_urdf(const RobotSource& options) {
   if (!options.joint_limits.empty() && static_cast<int>(options.joint_limits.size()) != n)
     throw InputError(fmt::format("joint-limits: the chain has {} joints, got {} ranges", n, options.joint_limits.size()));
   if (!built.locked.empty()) {
-    std::string list;
-    for (const auto& item : built.locked) list += (list.empty() ? "" : ", ") + item;
-    model.notes.push_back(fmt::format("locked and lumped into the chain's bodies: {} (middle of range, or as <mimic> says)", list));
+    model.notes.push_back(fmt::format("locked and lumped into the chain's bodies: {} (middle of range, or as <mimic> says)",
+                                      fmt::join(built.locked, ", ")));
   }
   if (!built.held_fixed.empty())
     model.notes.push_back(fmt::format("held fixed (the arm's base does not move): {}", fmt::join(built.held_fixed, ", ")));
