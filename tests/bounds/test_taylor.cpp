@@ -72,6 +72,32 @@ TEST(TaylorForms, SecondOrderTermsAreExact) {
   EXPECT_GE(s.upper(), 1.0);
 }
 
+// A derivative along a joint the value does not depend on is the exact constant 0: sums and products with it are
+// exact and taken without arithmetic (a rounded product would leave a remainder of 2⁻¹⁰⁶⁰ and the other's symbols,
+// and every later product with it would be computed in full). The dynamics' containment tests below cover the
+// derivatives they feed.
+TEST(TaylorForms, TheExactZeroStaysExact) {
+  const obsgain::Taylor x = cos(obsgain::Taylor::symbol(0.3, 0.2, 0) * obsgain::Taylor::symbol(1.0, 0.1, 2));
+  const obsgain::Taylor zero(0.0);
+  ASSERT_TRUE(zero.is_zero());
+  ASSERT_FALSE(x.is_zero());
+  EXPECT_TRUE((x * zero).is_zero());
+  EXPECT_TRUE((zero * x).is_zero());
+  EXPECT_TRUE((2.5 * zero).is_zero());
+  for (const obsgain::Taylor& sum : {x + zero, zero + x, x - zero}) {
+    EXPECT_EQ(sum.c, x.c);
+    EXPECT_EQ(sum.r, x.r);
+    ASSERT_EQ(sum.symbols, x.symbols);
+    for (int k = 0; k < x.symbols; ++k) EXPECT_EQ(sum.a[k], x.a[k]);
+    for (int p = 0; p < obsgain::pair_count(x.symbols); ++p) EXPECT_EQ(sum.b[p], x.b[p]);
+  }
+  // A constant 0 with a remainder is not the exact zero: its products are bounded as before.
+  obsgain::Taylor small(0.0);
+  small.r = 1e-3;
+  EXPECT_FALSE(small.is_zero());
+  EXPECT_GE((x * small).r, 1e-3 * std::abs(x.c));
+}
+
 // λmin of a Taylor matrix sees where the remainder sits: a remainder of 5 on the large diagonal entry of
 // diag(10, 1) leaves λmin = 1 (a norm-only remainder would give 1 - 5), and the bound holds for every member.
 TEST(TaylorMatrices, SmallestEigenvalueUsesTheRemainderEntryByEntry) {

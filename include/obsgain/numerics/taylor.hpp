@@ -72,6 +72,9 @@ struct Taylor {
     return x;
   }
   double slope(int k) const { return k < symbols ? a[k] : 0.0; }
+  // The exact constant 0 (a derivative along a joint the value does not depend on): sums and products with it are
+  // exact, so they are taken without arithmetic and keep it exactly zero.
+  bool is_zero() const { return symbols == 0 && c == 0.0 && r == 0.0; }
   double curvature(int p) const { return p < pair_count(symbols) ? b[p] : 0.0; }
   // Σ|a_k|, Σ|b_kl|: the first- and second-order deviations' sizes.
   double linear_size() const;
@@ -128,6 +131,8 @@ inline double Taylor::lower() const {
 // Coefficient-wise sum: each coefficient's rounding is at most 2⁻⁵² of its modulus. The form of fewer symbols adds to
 // a prefix of the other's coefficients.
 inline Taylor operator+(const Taylor& x, const Taylor& y) {
+  if (y.is_zero()) return x;
+  if (x.is_zero()) return y;
   const Taylor& more = x.symbols >= y.symbols ? x : y;
   const Taylor& fewer = x.symbols >= y.symbols ? y : x;
   Taylor z(x.c + y.c);
@@ -162,6 +167,7 @@ inline Taylor operator-(const Taylor& x, const Taylor& y) { return x + (-y); }
 
 // Each product rounded within 2⁻⁵² of its modulus, which is at most (1 + 2⁻⁵²) |s| times the coefficient's.
 inline Taylor operator*(double s, const Taylor& x) {
+  if (x.is_zero()) return x;
   Taylor z(s * x.c);
   z.symbols = x.symbols;
   double moduli = std::abs(x.c);
@@ -184,6 +190,8 @@ inline Taylor operator*(double s, const Taylor& x) {
 // Rounding: every coefficient is a sum of at most four products of one term of x and one of y, each such product
 // appearing in one coefficient only: the rounding of them all is within 4.01 · 2⁻⁵² · (|xc| + X1 + X2)(|yc| + Y1 + Y2).
 inline Taylor operator*(const Taylor& x, const Taylor& y) {
+  if (x.is_zero()) return x;
+  if (y.is_zero()) return y;
   const double X1 = x.linear_size(), X2 = x.quadratic_size(), Y1 = y.linear_size(), Y2 = y.quadratic_size();
   Taylor z(x.c * y.c);
   z.symbols = std::max(x.symbols, y.symbols);
