@@ -164,22 +164,22 @@ double refine_choices(std::vector<Choice>& choices, double lower, const Refine& 
 }  // namespace
 
 BoxCosts box_costs(int n, int symbols, bool frictionless) {
-  // Per core, in seconds: fits of timings on the machine first taken as reference, for n = 2 ... 7 joints, on narrow
-  // boxes and on arcs (within about 30 %), divided by 4: halved for the two cores, and halved again because the
-  // suite's two-core machines run these steps 2.3 to 3.3 times faster than that one (measured on six arms; the
-  // factor 2 keeps every count exact, so a budget of B gives the boxes the fit's 2 B gave: docs/theory.md, "The
-  // budget"). `terms`: a Taylor matrix's n x n parts (centre, slopes, curvatures).
+  // Seconds on the reference machine, the suite's (two cores): each step timed there on one core, per box, on
+  // examples/arm6.urdf, arm7.urdf, iiwa14.urdf and the UR5 with armature, and halved for the two cores; the inertia
+  // step is an older fit's. The count runs a quarter ahead of that, so that a default design, whose numeric search
+  // comes first, ends within its budget on every arm measured (docs/theory.md, "The budget"). `terms`: a Taylor
+  // matrix's n x n parts (centre, slopes, curvatures).
+  constexpr double ahead = 1.25;
   const double n1 = n, n2 = n1 * n1, n3 = n2 * n1, s = symbols, terms = 1.0 + s + pair_count(symbols);
   const double vertices = std::ldexp(1.0, frictionless ? n - 1 : n);
-  const BoxCosts core{3e-6 * n3,
-                      0.2e-3 + 12.5e-6 * n3 * (1.0 + 0.047 * s),
-                      0.05e-3 + 51e-9 * n2 * n2 * s,
-                      1e-6 + 7e-9 * n2 * terms,
-                      3e-6 + 12e-9 * n2 * terms,
-                      0.09e-6 + 8.5e-9 * n1 * terms,
-                      5e-6 + 7.5e-9 * vertices * n3};
-  return {core.inertia / 4, core.forms / 4,  core.products / 4, core.vertex / 4,
-          core.refinement / 4, core.choice / 4, core.point / 4};
+  return {0.75e-6 * n3,
+          ahead * (19e-6 + 1.19e-6 * n3 * (1.0 + 0.047 * s)),
+          ahead * (17e-6 + 17e-9 * n2 * n2 * s),
+          ahead * (0.39e-6 + 2.7e-9 * n2 * terms),
+          ahead * (0.86e-6 + 3.45e-9 * n2 * terms),
+          ahead * (0.026e-6 + 2.45e-9 * n1 * terms),
+          ahead * (1.9e-6 + 2.8e-9 * vertices * n3),
+          ahead * (0.36e-6 + 1.73e-9 * n2 * terms)};
 }
 
 Similarity similarity(const Eigen::MatrixXd& T) {
@@ -238,7 +238,7 @@ BoxBound BoxBounds::jacobian(const std::vector<Interval>& box, double lower) con
     const TaylorMatrix Jw = linear_combination(J, vertices_.col(c), J_frobenius);
     weigh_sides(Jw, d, bound.split_weight);
     const double floor = std::max(bound.upper, lower);
-    bound.work += costs.vertex + (Jw.frobenius_upper() > floor ? costs.refinement : 0.0);
+    bound.work += costs.jacobian_vertex + (Jw.frobenius_upper() > floor ? costs.refinement : 0.0);
     bound.upper = std::max(bound.upper, norm_upper(Jw, floor));
   }
   return bound;
@@ -263,18 +263,30 @@ LipschitzTerms lipschitz_terms(const Model& model, const BoxForms& d, const std:
                                const Similarity* scaling = nullptr) {
   LipschitzTerms t;
   const bool diagonal = scaling && scaling->diagonal;
-  const auto times_inverse = [&](const std::vector<Taylor>& Y) {
-    std::vector<Taylor> X = product(inverse_M.entries, Y, d.n, d.n, d.n);
-    if (diagonal)
-      for (int i = 0; i < d.n; ++i)
-        for (int k = 0; k < d.n; ++k)
-          X[i * d.n + k] = (X[i * d.n + k] * scaling->rows(i, i)) * scaling->columns(k, k);
-    return taylor_matrix(X.data(), d.n, d.n, d.symbols);
-  };
-  for (int j = 0; j < d.n; ++j) t.A.push_back(times_inverse(unit_jacobian(d, j)));
-  std::vector<Taylor> F(static_cast<std::size_t>(d.n * d.n));
-  for (int i = 0; i < d.n * d.n; ++i) F[i] = Taylor(model.friction(i / d.n, i % d.n));
-  t.R = times_inverse(F);
+  const int n = d.n, blocks = n + 1;
+  std::vector<Taylor> F(static_cast<std::size_t>(n * n));
+  for (int i = 0; i < n * n; ++i) F[i] = Taylor(model.friction(i / n, i % n));
+  // M⁻¹ [J_1 ... J_n F] in one product: its coefficients are then matrix products n x n by n x n(n + 1).
+  std::vector<Taylor> JF(static_cast<std::size_t>(n * n * blocks));
+  for (int j = 0; j < blocks; ++j) {
+    const std::vector<Taylor> Y = j < n ? unit_jacobian(d, j) : F;
+    for (int i = 0; i < n; ++i)
+      for (int k = 0; k < n; ++k) JF[static_cast<std::size_t>(i * n * blocks + j * n + k)] = Y[static_cast<std::size_t>(i * n + k)];
+  }
+  const std::vector<Taylor> X = product(inverse_M.entries, JF, n, n, n * blocks);
+  for (int j = 0; j < blocks; ++j) {
+    std::vector<Taylor> block(static_cast<std::size_t>(n * n));
+    for (int i = 0; i < n; ++i)
+      for (int k = 0; k < n; ++k) {
+        const Taylor& x = X[static_cast<std::size_t>(i * n * blocks + j * n + k)];
+        block[static_cast<std::size_t>(i * n + k)] = diagonal ? (x * scaling->rows(i, i)) * scaling->columns(k, k) : x;
+      }
+    TaylorMatrix term = taylor_matrix(block.data(), n, n, d.symbols);
+    if (j < n)
+      t.A.push_back(std::move(term));
+    else
+      t.R = std::move(term);
+  }
   if (scaling && !diagonal) {
     for (TaylorMatrix& A : t.A) A = sandwiched(scaling->rows, A, {});
     t.R = sandwiched(scaling->rows, t.R, scaling->columns);
@@ -403,7 +415,9 @@ double choices_upper(const LipschitzTerms& t, const BoxForms& d, const VelocityC
     choices.push_back({cheap, cheap - centre, static_cast<unsigned>(vertices.size()), 0u});
     vertices.push_back(std::move(e));
   }
-  work += static_cast<double>(choices.size()) * v.costs.vertex;
+  // The vertices' forms carry the velocity symbols too: what each step costs grows with them.
+  const BoxCosts costs = box_costs(d.n, R.symbols(), v.frictionless);
+  work += static_cast<double>(choices.size()) * costs.vertex;
   int refined = 0, full = 0;
   const double R_centre = spectral_norm(t.R.centre);
   const double upper = refine_choices(choices, lower, [&](const Choice& choice, double floor) {
@@ -416,10 +430,10 @@ double choices_upper(const LipschitzTerms& t, const BoxForms& d, const VelocityC
     if (v.frictionless || fine <= floor) return fine;
     const double sigma = spectral_norm(C), added = R_centre * R_centre / (2.0 * spectral_norm(e.Aw.centre + t.R.centre));
     if (added < 0.1 * (fine - sigma)) return fine;
-    return std::min(fine, patterns_upper(e.Aw, e.Aw_frobenius, R, floor, v.costs, work));
+    return std::min(fine, patterns_upper(e.Aw, e.Aw_frobenius, R, floor, costs, work));
   }, refined);
   // A centre test per vertex refined; an envelope (2n x n with friction) costs two n x n refinements.
-  work += refined * v.costs.choice + full * v.costs.refinement * (v.frictionless ? 1.0 : 2.0);
+  work += refined * costs.choice + full * costs.refinement * (v.frictionless ? 1.0 : 2.0);
   return upper;
 }
 
@@ -496,7 +510,7 @@ BoxBound BoxBounds::joint_lipschitz(const std::vector<Interval>& box, double low
   const TaylorInverse inverse_M = inverse(d.M, d.n, d.symbols);
   // The branch and bound evaluates the value attained at the box's midpoint with every bound: counted here.
   const BoxCosts costs = box_costs(d.n, d.symbols, frictionless_);
-  const double inertia_route_work = costs.refinement + (count_ - half_) * (costs.vertex + costs.refinement);
+  const double inertia_route_work = costs.refinement + (count_ - half_) * costs.jacobian_vertex;
   if (!inverse_M.proven) {
     BoxBound bound = by_inertia_floor(d, J);
     bound.work = costs.point + costs.forms + inertia_route_work;

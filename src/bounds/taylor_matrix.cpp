@@ -430,15 +430,89 @@ double smallest_eigenvalue_lower(const TaylorMatrix& X) {
   return (Interval(lambda.lower()) * Interval(scale) - Interval(by_entry ? 0.0 : X.remainder)).lower();
 }
 
-std::vector<Taylor> product(const std::vector<Taylor>& A, const std::vector<Taylor>& B, int rows, int inner, int cols) {
-  std::vector<Taylor> C(static_cast<std::size_t>(rows * cols));
+namespace {
+
+// Row-major forms as one matrix per coefficient over `symbols` symbols (the centre, then the slopes, then the
+// curvatures in kPairs' order), with each entry's sizes: Σ|a_k|, Σ|b_p|, |c| + both, and r.
+struct CoefficientMatrices {
+  std::vector<Eigen::MatrixXd> terms;
+  Eigen::MatrixXd linear, quadratic, total, remainder;
+};
+
+CoefficientMatrices coefficient_matrices(const std::vector<Taylor>& X, int rows, int cols, int symbols) {
+  CoefficientMatrices m;
+  m.terms.assign(static_cast<std::size_t>(1 + symbols + pair_count(symbols)), Eigen::MatrixXd(rows, cols));
+  m.linear.resize(rows, cols);
+  m.quadratic.resize(rows, cols);
+  m.total.resize(rows, cols);
+  m.remainder.resize(rows, cols);
   for (int i = 0; i < rows; ++i)
     for (int j = 0; j < cols; ++j) {
-      Taylor sum;
-      for (int k = 0; k < inner; ++k) sum += A[i * inner + k] * B[k * cols + j];
-      C[i * cols + j] = sum;
+      const Taylor& x = X[static_cast<std::size_t>(i * cols + j)];
+      m.terms[0](i, j) = x.c;
+      for (int k = 0; k < symbols; ++k) m.terms[1 + k](i, j) = x.slope(k);
+      for (int p = 0; p < pair_count(symbols); ++p) m.terms[1 + symbols + p](i, j) = x.curvature(p);
+      m.linear(i, j) = x.linear_size();
+      m.quadratic(i, j) = x.quadratic_size();
+      m.total(i, j) = up(std::abs(x.c) + m.linear(i, j) + m.quadratic(i, j));
+      m.remainder(i, j) = x.r;
     }
-  return C;
+  return m;
+}
+
+// Row-major forms from one matrix per coefficient (as above) and each entry's remainder, rounded up.
+std::vector<Taylor> forms_of(const std::vector<Eigen::MatrixXd>& terms, const Eigen::MatrixXd& remainder, int symbols) {
+  const auto rows = static_cast<int>(remainder.rows()), cols = static_cast<int>(remainder.cols());
+  std::vector<Taylor> X(static_cast<std::size_t>(rows * cols));
+  for (int i = 0; i < rows; ++i)
+    for (int j = 0; j < cols; ++j) {
+      Taylor& x = X[static_cast<std::size_t>(i * cols + j)];
+      x.c = terms[0](i, j);
+      x.symbols = symbols;
+      for (int k = 0; k < symbols; ++k) x.a[k] = terms[1 + k](i, j);
+      for (int p = 0; p < pair_count(symbols); ++p) x.b[p] = terms[1 + symbols + p](i, j);
+      x.r = up(remainder(i, j));
+    }
+  return X;
+}
+
+int symbols_of(const std::vector<Taylor>& X) {
+  int symbols = 0;
+  for (const Taylor& x : X) symbols = std::max(symbols, x.symbols);
+  return symbols;
+}
+
+}  // namespace
+
+// The coefficients of every entry at once, as matrix products: C_0 = A_0 B_0, C_k = A_0 B_k + A_k B_0, C_kl = A_0 B_kl +
+// A_kl B_0 + A_k B_l + A_l B_k (A_k B_k on the diagonal); the cubic and quartic terms and every product with a
+// remainder bounded as one form's product does (operator*), by products of the entries' sizes rounded upward. Each
+// coefficient of an entry is a sum of at most 4 · inner products of one term of A and one of B, each product in one
+// coefficient only: their rounding, in any order of summation, is within γ_{4 inner} Σ_m total(A)_im total(B)_mj, and
+// their underflow (at most 4 · 8 · 120 products of 2⁻¹⁰⁷⁴ per entry) within the 2⁻¹⁰⁶⁰ that up() adds.
+std::vector<Taylor> product(const std::vector<Taylor>& A, const std::vector<Taylor>& B, int rows, int inner, int cols) {
+  const int symbols = std::max(symbols_of(A), symbols_of(B));
+  const CoefficientMatrices a = coefficient_matrices(A, rows, inner, symbols), b = coefficient_matrices(B, inner, cols, symbols);
+  std::vector<Eigen::MatrixXd> c(a.terms.size());
+  c[0].noalias() = a.terms[0] * b.terms[0];
+  for (int k = 0; k < symbols; ++k) {
+    c[1 + k].noalias() = a.terms[0] * b.terms[1 + k];
+    c[1 + k].noalias() += a.terms[1 + k] * b.terms[0];
+  }
+  for (int p = 0; p < pair_count(symbols); ++p) {
+    const int k = kPairs.first[p], l = kPairs.second[p], t = 1 + symbols + p;
+    c[t].noalias() = a.terms[0] * b.terms[t];
+    c[t].noalias() += a.terms[t] * b.terms[0];
+    c[t].noalias() += a.terms[1 + k] * b.terms[1 + l];
+    if (k != l) c[t].noalias() += a.terms[1 + l] * b.terms[1 + k];
+  }
+  Eigen::MatrixXd remainder;
+  {
+    const UpwardRounding upward;  // sums and products of non-negative terms, each rounded up
+    remainder = a.linear * b.quadratic + a.quadratic * b.linear + a.quadratic * b.quadratic + a.total * b.remainder +
+                a.remainder * b.total + a.remainder * b.remainder + gamma(4 * inner) * (a.total * b.total);
+  }
+  return forms_of(c, remainder, symbols);
 }
 
 double frobenius_upper(const std::vector<Taylor>& X) {
@@ -463,17 +537,20 @@ Eigen::MatrixXd inverse_cholesky_factor(const std::vector<Taylor>& M, int n) {
   return L.triangularView<Eigen::Lower>().solve(Eigen::MatrixXd::Identity(n, n));
 }
 
-// K X (K a double matrix) as forms.
+// K X (K a double matrix) as forms, coefficient by coefficient as matrix products. Each coefficient of an entry is a
+// sum of K.cols() products K_ik x_kj, rounded within γ Σ_k |K_ik| |x_kj|: over the coefficients, γ (|K| total(X))_ij.
 std::vector<Taylor> left_multiply(const Eigen::MatrixXd& K, const std::vector<Taylor>& X, int n) {
-  std::vector<Taylor> Y(static_cast<std::size_t>(K.rows() * n));
-  for (Eigen::Index i = 0; i < K.rows(); ++i)
-    for (int j = 0; j < n; ++j) {
-      Taylor sum;
-      for (Eigen::Index k = 0; k < K.cols(); ++k)
-        if (K(i, k) != 0.0) sum += K(i, k) * X[k * n + j];
-      Y[i * n + j] = sum;
-    }
-  return Y;
+  const int symbols = symbols_of(X);
+  const CoefficientMatrices x = coefficient_matrices(X, static_cast<int>(K.cols()), n, symbols);
+  std::vector<Eigen::MatrixXd> y(x.terms.size());
+  for (std::size_t t = 0; t < y.size(); ++t) y[t].noalias() = K * x.terms[t];
+  Eigen::MatrixXd remainder;
+  {
+    const UpwardRounding upward;
+    const Eigen::MatrixXd K_abs = K.cwiseAbs();
+    remainder = K_abs * x.remainder + gamma(static_cast<int>(K.cols())) * (K_abs * x.total);
+  }
+  return forms_of(y, remainder, symbols);
 }
 
 // ||X(ε)||₂ over the box by the triangle inequality, term by term: ||C||₂ + Σ_k ||G_k||₂ + Σ_p ||H_p||_F + remainder.

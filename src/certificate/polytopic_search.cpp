@@ -369,9 +369,9 @@ BoxBound PolytopicSearch::State::box_bound(const std::vector<Interval>& box, con
                                            const Eigen::MatrixXd& constant, double constant_radius) const {
   const int n = layout.n, N = layout.N, size = 3 * n;
   const PerturbationForms forms = box_bounds.perturbation_forms(box);
-  // A vertex's 3n x 3n Taylor matrix and its eigenvalue bound: 54 refinements of an n x n form, timed on the suite's
-  // machine (whose steps box_costs counts at half the first reference's).
-  const double vertex_work = 54.0 * forms.costs.refinement;
+  // A vertex's 3n x 3n Taylor matrix and its eigenvalue bound: 38 refinements of an n x n form, timed on the suite's
+  // machine.
+  const double vertex_work = 38.0 * forms.costs.refinement;
   BoxBound bound{kInfinity, forms.split_weight, forms.costs.point + forms.costs.forms + forms.costs.products};
   if (!forms.proven) return bound;
   const Eigen::MatrixXd PE = P.rightCols(n);

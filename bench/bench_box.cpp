@@ -1,0 +1,46 @@
+// One box of the certified bounds' branch and bound (bounds/box_bounds.hpp), per arm: the time of L_joint's bound on
+// a box of the searched joints with every choice enumerated (no value attained to beat), single-threaded, beside what
+// the search counts for it (`counted_ms`, the budget's reference seconds for two cores: bounds/box_bounds.cpp,
+// box_costs). The count is fitted to run a quarter above half the time of a search's boxes on one core
+// (docs/theory.md, "The budget"). `width`: the box's share of every searched side.
+// Run: build/bench/bench_box
+#include "obsgain/bounds/box_bounds.hpp"
+#include "obsgain/bounds/joint_search.hpp"
+#include "obsgain/model/dynamics.hpp"
+#include "obsgain/parsers/robots.hpp"
+
+#include <benchmark/benchmark.h>
+
+#include <string>
+#include <vector>
+
+namespace {
+
+void JointLipschitzBox(benchmark::State& state, const char* file, double width) {
+  const obsgain::Model model = obsgain::load_robot({std::string(OBSGAIN_EXAMPLES_DIR) + "/" + file});
+  const obsgain::JointSearch search = obsgain::joint_search(model, obsgain::configuration_joints(model));
+  const obsgain::BoxBounds boxes(model, search, model.velocity_bounds);
+  std::vector<obsgain::Interval> box;
+  for (const obsgain::Interval& side : search.domain) {
+    const double low = side.lower() + 0.3 * (side.upper() - side.lower());
+    box.emplace_back(low, low + width * (side.upper() - side.lower()));
+  }
+  double work = 0.0;
+  for (auto _ : state) {
+    const obsgain::BoxBound bound = boxes.joint_lipschitz(box, 0.0);
+    work = bound.work;
+    benchmark::DoNotOptimize(bound);
+  }
+  state.counters["counted_ms"] = 1e3 * work;
+}
+
+BENCHMARK_CAPTURE(JointLipschitzBox, arm3_narrow, "arm3.urdf", 0.02)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(JointLipschitzBox, arm6_narrow, "arm6.urdf", 0.02)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(JointLipschitzBox, arm6_wide, "arm6.urdf", 0.1)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(JointLipschitzBox, arm7_narrow, "arm7.urdf", 0.02)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(JointLipschitzBox, arm7_wide, "arm7.urdf", 0.1)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(JointLipschitzBox, iiwa14_narrow, "iiwa14.urdf", 0.02)->Unit(benchmark::kMillisecond);
+
+}  // namespace
+
+BENCHMARK_MAIN();
