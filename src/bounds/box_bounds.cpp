@@ -80,7 +80,7 @@ BoxBound lipschitz_by_inertia_floor(const Model& model, double floor, const BoxF
   double J_norm = 0.0;
   const std::vector<double> J_frobenius = frobenius_uppers(J);
   for (unsigned c = first; c < count; ++c)
-    J_norm = std::max(J_norm, norm_upper(linear_combination(J, vertices.col(c), J_frobenius), kInfinity));
+    J_norm = std::max(J_norm, linear_combination_frobenius_upper(J, vertices.col(c), J_frobenius));
   bound.upper = ((Interval(J_norm) + Interval(spectral_norm_upper(model.friction))) / Interval(lambda)).upper();
   return bound;
 }
@@ -172,14 +172,14 @@ BoxCosts box_costs(int n, int symbols, bool frictionless) {
   constexpr double ahead = 1.25;
   const double n1 = n, n2 = n1 * n1, n3 = n2 * n1, s = symbols, terms = 1.0 + s + pair_count(symbols);
   const double vertices = std::ldexp(1.0, frictionless ? n - 1 : n);
-  return {0.75e-6 * n3,
-          ahead * (19e-6 + 1.19e-6 * n3 * (1.0 + 0.047 * s)),
-          ahead * (17e-6 + 17e-9 * n2 * n2 * s),
-          ahead * (0.39e-6 + 2.7e-9 * n2 * terms),
-          ahead * (0.86e-6 + 3.45e-9 * n2 * terms),
-          ahead * (0.026e-6 + 2.45e-9 * n1 * terms),
-          ahead * (1.9e-6 + 2.8e-9 * vertices * n3),
-          ahead * (0.36e-6 + 1.73e-9 * n2 * terms)};
+  return {.inertia = 0.75e-6 * n3,
+          .forms = ahead * (19e-6 + 1.19e-6 * n3 * (1.0 + 0.047 * s)),
+          .products = ahead * (17e-6 + 17e-9 * n2 * n2 * s),
+          .vertex = ahead * (0.39e-6 + 2.7e-9 * n2 * terms),
+          .refinement = ahead * (0.86e-6 + 3.45e-9 * n2 * terms),
+          .choice = ahead * (0.026e-6 + 2.45e-9 * n1 * terms),
+          .point = ahead * (1.9e-6 + 2.8e-9 * vertices * n3),
+          .jacobian_vertex = ahead * (0.36e-6 + 1.73e-9 * n2 * terms)};
 }
 
 Similarity similarity(const Eigen::MatrixXd& T) {

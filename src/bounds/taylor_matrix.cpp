@@ -140,6 +140,34 @@ TaylorMatrix linear_combination(const std::vector<TaylorMatrix>& terms, const Ei
   return X;
 }
 
+// The same sums, in the same order, one coefficient matrix at a time into one scratch matrix.
+double linear_combination_frobenius_upper(const std::vector<TaylorMatrix>& terms, const Eigen::VectorXd& weights,
+                                         const std::vector<double>& frobenius_of_terms) {
+  double remainder = 0.0, rounding = 0.0;
+  for (std::size_t j = 0; j < terms.size(); ++j) {
+    const double w = weights(static_cast<Eigen::Index>(j));
+    if (w == 0.0) continue;
+    remainder += std::abs(w) * terms[j].remainder;
+    rounding += std::abs(w) * frobenius_of_terms[j];
+  }
+  remainder = up(remainder + gamma(static_cast<int>(terms.size())) * rounding);
+  Eigen::MatrixXd scratch(terms[0].centre.rows(), terms[0].centre.cols());
+  const auto combined = [&](const auto& coefficient) {
+    scratch.setZero();
+    for (std::size_t j = 0; j < terms.size(); ++j) {
+      const double w = weights(static_cast<Eigen::Index>(j));
+      if (w != 0.0) scratch += w * coefficient(terms[j]);
+    }
+    return frobenius(scratch);
+  };
+  double bound = combined([](const TaylorMatrix& X) -> const Eigen::MatrixXd& { return X.centre; }) + remainder;
+  for (std::size_t k = 0; k < terms[0].slopes.size(); ++k)
+    bound += combined([k](const TaylorMatrix& X) -> const Eigen::MatrixXd& { return X.slopes[k]; });
+  for (std::size_t p = 0; p < terms[0].curvatures.size(); ++p)
+    bound += combined([p](const TaylorMatrix& X) -> const Eigen::MatrixXd& { return X.curvatures[p]; });
+  return up(bound);
+}
+
 TaylorMatrix linear_combination(const std::vector<TaylorMatrix>& terms, const Eigen::VectorXd& weights,
                                 const std::vector<bool>& free, const std::vector<double>& term_frobenius) {
   Eigen::VectorXd fixed = weights;

@@ -98,6 +98,32 @@ TEST(TaylorForms, TheExactZeroStaysExact) {
   EXPECT_GE((x * small).r, 1e-3 * std::abs(x.c));
 }
 
+// The inertia floor's route takes the cheap bound of many combinations without forming them: the same number, to the
+// bit, as forming each and bounding it, for random terms and weights (zero weights skipped as linear_combination
+// skips them).
+TEST(TaylorMatrices, CombinationBoundWithoutTheCombinationIsTheSameNumber) {
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  for (int trial = 0; trial < 20; ++trial) {
+    const int n = 2 + trial % 5, symbols = 1 + trial % 4;
+    std::vector<obsgain::TaylorMatrix> terms;
+    for (int j = 0; j < n; ++j) {
+      std::vector<obsgain::Taylor> entries;
+      for (int e = 0; e < n * n; ++e) {
+        obsgain::Taylor x = obsgain::Taylor::symbol(unit(rng), 0.3 * unit(rng), e % symbols);
+        for (int k = 0; k < symbols; ++k) x = x * cos(obsgain::Taylor::symbol(unit(rng), 0.2, k));
+        entries.push_back(x);
+      }
+      terms.push_back(obsgain::taylor_matrix(entries.data(), n, n, symbols));
+    }
+    Eigen::VectorXd w(n);
+    for (int j = 0; j < n; ++j) w(j) = j == trial % n ? 0.0 : 3.0 * unit(rng);
+    const std::vector<double> frobenius = obsgain::frobenius_uppers(terms);
+    EXPECT_EQ(obsgain::linear_combination_frobenius_upper(terms, w, frobenius),
+              obsgain::linear_combination(terms, w, frobenius).frobenius_upper());
+  }
+}
+
 // λmin of a Taylor matrix sees where the remainder sits: a remainder of 5 on the large diagonal entry of
 // diag(10, 1) leaves λmin = 1 (a norm-only remainder would give 1 - 5), and the bound holds for every member.
 TEST(TaylorMatrices, SmallestEigenvalueUsesTheRemainderEntryByEntry) {
