@@ -460,30 +460,29 @@ double smallest_eigenvalue_lower(const TaylorMatrix& X) {
 
 namespace {
 
-// Row-major forms as one matrix per coefficient over `symbols` symbols (the centre, then the slopes, then the
-// curvatures in kPairs' order), with each entry's sizes: Σ|a_k|, Σ|b_p|, |c| + both, and r.
+// Row-major forms as a Taylor matrix over `symbols` symbols (its entry_remainder each entry's r), with each entry's
+// sizes: Σ|a_k|, Σ|b_p| and |c| + both.
 struct CoefficientMatrices {
-  std::vector<Eigen::MatrixXd> terms;
-  Eigen::MatrixXd linear, quadratic, total, remainder;
+  TaylorMatrix X;
+  Eigen::MatrixXd linear, quadratic, total;
+  // The centre (t = 0), the slopes (1 ... symbols), then the curvatures.
+  const Eigen::MatrixXd& term(int t) const {
+    const int symbols = X.symbols();
+    return t == 0 ? X.centre : t <= symbols ? X.slopes[t - 1] : X.curvatures[t - 1 - symbols];
+  }
 };
 
 CoefficientMatrices coefficient_matrices(const std::vector<Taylor>& X, int rows, int cols, int symbols) {
-  CoefficientMatrices m;
-  m.terms.assign(static_cast<std::size_t>(1 + symbols + pair_count(symbols)), Eigen::MatrixXd(rows, cols));
+  CoefficientMatrices m{taylor_matrix(X.data(), rows, cols, symbols), {}, {}, {}};
   m.linear.resize(rows, cols);
   m.quadratic.resize(rows, cols);
   m.total.resize(rows, cols);
-  m.remainder.resize(rows, cols);
   for (int i = 0; i < rows; ++i)
     for (int j = 0; j < cols; ++j) {
       const Taylor& x = X[static_cast<std::size_t>(i * cols + j)];
-      m.terms[0](i, j) = x.c;
-      for (int k = 0; k < symbols; ++k) m.terms[1 + k](i, j) = x.slope(k);
-      for (int p = 0; p < pair_count(symbols); ++p) m.terms[1 + symbols + p](i, j) = x.curvature(p);
       m.linear(i, j) = x.linear_size();
       m.quadratic(i, j) = x.quadratic_size();
       m.total(i, j) = up(std::abs(x.c) + m.linear(i, j) + m.quadratic(i, j));
-      m.remainder(i, j) = x.r;
     }
   return m;
 }
@@ -521,24 +520,26 @@ int symbols_of(const std::vector<Taylor>& X) {
 std::vector<Taylor> product(const std::vector<Taylor>& A, const std::vector<Taylor>& B, int rows, int inner, int cols) {
   const int symbols = std::max(symbols_of(A), symbols_of(B));
   const CoefficientMatrices a = coefficient_matrices(A, rows, inner, symbols), b = coefficient_matrices(B, inner, cols, symbols);
-  std::vector<Eigen::MatrixXd> c(a.terms.size());
-  c[0].noalias() = a.terms[0] * b.terms[0];
+  std::vector<Eigen::MatrixXd> c(static_cast<std::size_t>(1 + symbols + pair_count(symbols)));
+  c[0].noalias() = a.term(0) * b.term(0);
   for (int k = 0; k < symbols; ++k) {
-    c[1 + k].noalias() = a.terms[0] * b.terms[1 + k];
-    c[1 + k].noalias() += a.terms[1 + k] * b.terms[0];
+    c[1 + k].noalias() = a.term(0) * b.term(1 + k);
+    c[1 + k].noalias() += a.term(1 + k) * b.term(0);
   }
   for (int p = 0; p < pair_count(symbols); ++p) {
     const int k = kPairs.first[p], l = kPairs.second[p], t = 1 + symbols + p;
-    c[t].noalias() = a.terms[0] * b.terms[t];
-    c[t].noalias() += a.terms[t] * b.terms[0];
-    c[t].noalias() += a.terms[1 + k] * b.terms[1 + l];
-    if (k != l) c[t].noalias() += a.terms[1 + l] * b.terms[1 + k];
+    c[t].noalias() = a.term(0) * b.term(t);
+    c[t].noalias() += a.term(t) * b.term(0);
+    c[t].noalias() += a.term(1 + k) * b.term(1 + l);
+    if (k != l) c[t].noalias() += a.term(1 + l) * b.term(1 + k);
   }
   Eigen::MatrixXd remainder;
   {
     const UpwardRounding upward;  // sums and products of non-negative terms, each rounded up
-    remainder = a.linear * b.quadratic + a.quadratic * b.linear + a.quadratic * b.quadratic + a.total * b.remainder +
-                a.remainder * b.total + a.remainder * b.remainder + gamma(4 * inner) * (a.total * b.total);
+    const Eigen::MatrixXd& ar = a.X.entry_remainder;
+    const Eigen::MatrixXd& br = b.X.entry_remainder;
+    remainder = a.linear * b.quadratic + a.quadratic * b.linear + a.quadratic * b.quadratic + a.total * br +
+                ar * b.total + ar * br + gamma(4 * inner) * (a.total * b.total);
   }
   return forms_of(c, remainder, symbols);
 }
@@ -570,13 +571,13 @@ Eigen::MatrixXd inverse_cholesky_factor(const std::vector<Taylor>& M, int n) {
 std::vector<Taylor> left_multiply(const Eigen::MatrixXd& K, const std::vector<Taylor>& X, int n) {
   const int symbols = symbols_of(X);
   const CoefficientMatrices x = coefficient_matrices(X, static_cast<int>(K.cols()), n, symbols);
-  std::vector<Eigen::MatrixXd> y(x.terms.size());
-  for (std::size_t t = 0; t < y.size(); ++t) y[t].noalias() = K * x.terms[t];
+  std::vector<Eigen::MatrixXd> y(static_cast<std::size_t>(1 + symbols + pair_count(symbols)));
+  for (std::size_t t = 0; t < y.size(); ++t) y[t].noalias() = K * x.term(static_cast<int>(t));
   Eigen::MatrixXd remainder;
   {
     const UpwardRounding upward;
     const Eigen::MatrixXd K_abs = K.cwiseAbs();
-    remainder = K_abs * x.remainder + gamma(static_cast<int>(K.cols())) * (K_abs * x.total);
+    remainder = K_abs * x.X.entry_remainder + gamma(static_cast<int>(K.cols())) * (K_abs * x.total);
   }
   return forms_of(y, remainder, symbols);
 }
