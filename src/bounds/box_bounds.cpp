@@ -77,10 +77,7 @@ BoxBound lipschitz_by_inertia_floor(const Model& model, double floor, const BoxF
   BoxBound bound{kInfinity, {}};
   const double lambda = inertia_lower(floor, d, &bound.split_weight);
   if (!(lambda > 0.0)) return bound;
-  double J_norm = 0.0;
-  const std::vector<double> J_frobenius = frobenius_uppers(J);
-  for (unsigned c = first; c < count; ++c)
-    J_norm = std::max(J_norm, linear_combination_frobenius_upper(J, vertices.col(c), J_frobenius));
+  const double J_norm = largest_combination_frobenius_upper(J, vertices.middleCols(first, count - first));
   bound.upper = ((Interval(J_norm) + Interval(spectral_norm_upper(model.friction))) / Interval(lambda)).upper();
   return bound;
 }
@@ -165,21 +162,25 @@ double refine_choices(std::vector<Choice>& choices, double lower, const Refine& 
 
 BoxCosts box_costs(int n, int symbols, bool frictionless) {
   // Seconds on the reference machine, the suite's (two cores): each step timed there on one core, per box, on
-  // examples/arm6.urdf, arm7.urdf, iiwa14.urdf and the UR5 with armature, and halved for the two cores; the inertia
-  // step is an older fit's. The count runs a quarter ahead of that, so that a default design, whose numeric search
-  // comes first, ends within its budget on every arm measured (docs/theory.md, "The budget"). `terms`: a Taylor
-  // matrix's n x n parts (centre, slopes, curvatures).
+  // examples/arm6.urdf, arm7.urdf, iiwa14.urdf and the UR5 with armature, and halved for the two cores (the forms and
+  // the inertia floor's route refitted in the seventh round of issue 18, after they became faster; the inertia step is
+  // an older fit's). The count runs a quarter ahead of that, so that a default design, whose numeric search comes
+  // first, ends within its budget on every arm measured (docs/theory.md, "The budget"). `terms`: a Taylor matrix's
+  // n x n parts (centre, slopes, curvatures).
   constexpr double ahead = 1.25;
   const double n1 = n, n2 = n1 * n1, n3 = n2 * n1, s = symbols, terms = 1.0 + s + pair_count(symbols);
   const double vertices = std::ldexp(1.0, frictionless ? n - 1 : n);
+  const double products = ahead * (17e-6 + 17e-9 * n2 * n2 * s);
   return {.inertia = 0.75e-6 * n3,
-          .forms = ahead * (19e-6 + 1.19e-6 * n3 * (1.0 + 0.047 * s)),
-          .products = ahead * (17e-6 + 17e-9 * n2 * n2 * s),
+          .forms = ahead * (15.5e-6 + 0.95e-6 * n3 * (1.0 + 0.047 * s)),
+          .products = products,
+          .failed_inverse = 0.3 * products,
           .vertex = ahead * (0.39e-6 + 2.7e-9 * n2 * terms),
           .refinement = ahead * (0.86e-6 + 3.45e-9 * n2 * terms),
           .choice = ahead * (0.026e-6 + 2.45e-9 * n1 * terms),
           .point = ahead * (1.9e-6 + 2.8e-9 * vertices * n3),
-          .jacobian_vertex = ahead * (0.36e-6 + 1.73e-9 * n2 * terms)};
+          .jacobian_vertex = ahead * (0.36e-6 + 1.73e-9 * n2 * terms),
+          .inertia_route = ahead * terms * (0.094e-6 + 0.27e-9 * n2 * (n2 + std::ldexp(1.0, n - 1)))};
 }
 
 Similarity similarity(const Eigen::MatrixXd& T) {
@@ -510,10 +511,10 @@ BoxBound BoxBounds::joint_lipschitz(const std::vector<Interval>& box, double low
   const TaylorInverse inverse_M = inverse(d.M, d.n, d.symbols);
   // The branch and bound evaluates the value attained at the box's midpoint with every bound: counted here.
   const BoxCosts costs = box_costs(d.n, d.symbols, frictionless_);
-  const double inertia_route_work = costs.refinement + (count_ - half_) * costs.jacobian_vertex;
+  const double inertia_route_work = costs.refinement + costs.inertia_route;
   if (!inverse_M.proven) {
     BoxBound bound = by_inertia_floor(d, J);
-    bound.work = costs.point + costs.forms + inertia_route_work;
+    bound.work = costs.point + costs.forms + costs.failed_inverse + inertia_route_work;
     return restored(std::move(bound));
   }
   const LipschitzTerms t = lipschitz_terms(model_, d, J, velocity_bounds_, inverse_M, scaling_ ? &*scaling_ : nullptr);

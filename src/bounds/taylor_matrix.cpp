@@ -140,32 +140,42 @@ TaylorMatrix linear_combination(const std::vector<TaylorMatrix>& terms, const Ei
   return X;
 }
 
-// The same sums, in the same order, one coefficient matrix at a time into one scratch matrix.
-double linear_combination_frobenius_upper(const std::vector<TaylorMatrix>& terms, const Eigen::VectorXd& weights,
-                                         const std::vector<double>& frobenius_of_terms) {
-  double remainder = 0.0, rounding = 0.0;
+// Coefficient t of every term, term j's as column j: 0 the centre, then the slopes, then the curvatures.
+Eigen::MatrixXd coefficient_columns(const std::vector<TaylorMatrix>& terms, std::size_t t) {
+  const TaylorMatrix& first = terms[0];
+  Eigen::MatrixXd C(first.centre.size(), static_cast<Eigen::Index>(terms.size()));
   for (std::size_t j = 0; j < terms.size(); ++j) {
-    const double w = weights(static_cast<Eigen::Index>(j));
-    if (w == 0.0) continue;
-    remainder += std::abs(w) * terms[j].remainder;
-    rounding += std::abs(w) * frobenius_of_terms[j];
+    const TaylorMatrix& X = terms[j];
+    const Eigen::MatrixXd& c = t == 0 ? X.centre : t <= X.slopes.size() ? X.slopes[t - 1] : X.curvatures[t - 1 - X.slopes.size()];
+    C.col(static_cast<Eigen::Index>(j)) = c.reshaped();
   }
-  remainder = up(remainder + gamma(static_cast<int>(terms.size())) * rounding);
-  Eigen::MatrixXd scratch(terms[0].centre.rows(), terms[0].centre.cols());
-  const auto combined = [&](const auto& coefficient) {
-    scratch.setZero();
-    for (std::size_t j = 0; j < terms.size(); ++j) {
-      const double w = weights(static_cast<Eigen::Index>(j));
-      if (w != 0.0) scratch += w * coefficient(terms[j]);
-    }
-    return frobenius(scratch);
-  };
-  double bound = combined([](const TaylorMatrix& X) -> const Eigen::MatrixXd& { return X.centre; }) + remainder;
-  for (std::size_t k = 0; k < terms[0].slopes.size(); ++k)
-    bound += combined([k](const TaylorMatrix& X) -> const Eigen::MatrixXd& { return X.slopes[k]; });
-  for (std::size_t p = 0; p < terms[0].curvatures.size(); ++p)
-    bound += combined([p](const TaylorMatrix& X) -> const Eigen::MatrixXd& { return X.curvatures[p]; });
-  return up(bound);
+  return C;
+}
+
+// Each coefficient's ||Σ_j w_j C_j||_F² is wᵀ G w with G = CᵀC, C's columns the terms' coefficients: one Gram
+// matrix per coefficient serves every column of W, and no combination is formed, so its sums leave no rounding in
+// the remainder. Computed in floating point, wᵀ G w is within γ_(e + 2m + 2) (Σ_j |w_j| ||C_j||_F)² of the exact
+// value (e entries, m terms: the Gram entries within γ_e ||C_j||_F ||C_k||_F, then a sum of 2m products per column
+// of W), and that is added before the square root (docs/theory.md, "M⁻¹ over a box").
+double largest_combination_frobenius_upper(const std::vector<TaylorMatrix>& terms, const Eigen::MatrixXd& W) {
+  const auto m = static_cast<Eigen::Index>(terms.size());
+  const Eigen::MatrixXd W_abs = W.cwiseAbs();
+  Eigen::VectorXd remainders(m);
+  for (Eigen::Index j = 0; j < m; ++j) remainders(j) = terms[static_cast<std::size_t>(j)].remainder;
+  Eigen::RowVectorXd bound = (W_abs.transpose() * remainders).transpose();  // Σ_j |w_j| r_j
+  const std::size_t coefficients = 1 + terms[0].slopes.size() + terms[0].curvatures.size();
+  const double rounding = 1.01 * gamma(static_cast<int>(terms[0].centre.size() + 2 * m + 2));
+  Eigen::VectorXd norms(m);
+  for (std::size_t t = 0; t < coefficients; ++t) {
+    const Eigen::MatrixXd C = coefficient_columns(terms, t);
+    for (Eigen::Index j = 0; j < m; ++j) norms(j) = up(std::sqrt(up(C.col(j).squaredNorm())));
+    const Eigen::MatrixXd G = C.transpose() * C;
+    const Eigen::RowVectorXd squares = W.cwiseProduct(G * W).colwise().sum();
+    const Eigen::RowVectorXd sizes = (W_abs.transpose() * norms).transpose();  // Σ_j |w_j| ||C_j||_F
+    for (Eigen::Index c = 0; c < W.cols(); ++c)
+      bound(c) += up(std::sqrt(up(std::max(0.0, squares(c)) + up(rounding * up(sizes(c) * sizes(c))))));
+  }
+  return up(bound.maxCoeff());
 }
 
 TaylorMatrix linear_combination(const std::vector<TaylorMatrix>& terms, const Eigen::VectorXd& weights,

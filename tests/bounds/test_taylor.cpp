@@ -7,7 +7,9 @@
 #include "obsgain/bounds/box_forms.hpp"
 #include "obsgain/bounds/joint_search.hpp"
 #include "obsgain/bounds/taylor_matrix.hpp"
+#include "obsgain/model/chain_dynamics.hpp"
 #include "obsgain/model/dynamics.hpp"
+#include "obsgain/numerics/dual.hpp"
 #include "obsgain/numerics/spectrum.hpp"
 #include "obsgain/numerics/taylor.hpp"
 #include "obsgain/parsers/robots.hpp"
@@ -98,29 +100,108 @@ TEST(TaylorForms, TheExactZeroStaysExact) {
   EXPECT_GE((x * small).r, 1e-3 * std::abs(x.c));
 }
 
-// The inertia floor's route takes the cheap bound of many combinations without forming them: the same number, to the
-// bit, as forming each and bounding it, for random terms and weights (zero weights skipped as linear_combination
-// skips them).
-TEST(TaylorMatrices, CombinationBoundWithoutTheCombinationIsTheSameNumber) {
+// Products by 0 and ±1 are exact and take no arithmetic (0 x is the exact zero). In a combination of three (a rotation's
+// row), a coefficient below 1e-8 of the largest is not multiplied out: its product joins the remainder, larger by
+// |c| (|x_c| + radius(x)) and no more, and the sum is enclosed at random points; a dual's derivatives are widened by
+// their own sizes. The dynamics' containment tests below run it on the shipped URDFs' quarter-turn placements.
+TEST(TaylorForms, ProductsByExactAndNegligibleConstants) {
+  const obsgain::Taylor x = cos(obsgain::Taylor::symbol(0.3, 0.2, 0)) * obsgain::Taylor::symbol(2.0, 0.5, 1);
+  const obsgain::Taylor y = sin(obsgain::Taylor::symbol(-0.7, 0.3, 1));
+  const auto expect_same = [](const obsgain::Taylor& a, const obsgain::Taylor& b) {
+    EXPECT_EQ(a.c, b.c);
+    EXPECT_EQ(a.r, b.r);
+    ASSERT_EQ(a.symbols, b.symbols);
+    for (int k = 0; k < a.symbols; ++k) EXPECT_EQ(a.a[k], b.a[k]);
+    for (int p = 0; p < obsgain::pair_count(a.symbols); ++p) EXPECT_EQ(a.b[p], b.b[p]);
+  };
+  expect_same(1.0 * x, x);
+  expect_same(-1.0 * x, -x);
+  EXPECT_TRUE((0.0 * x).is_zero());
+  const double small = 3e-9;
+  const obsgain::Taylor sum = obsgain::chain_detail::combine(1.0, y, small, x, 0.0, x);
+  const double widening = small * (std::abs(x.c) + x.radius());
+  EXPECT_GE(sum.r - y.r, widening);
+  EXPECT_LE(sum.r - y.r, widening * (1.0 + 1e-12) + 1e-15);  // and the inflation of y's remainder
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  for (int point = 0; point < 1000; ++point) {
+    const std::vector<double> e{unit(rng), unit(rng)};
+    EXPECT_TRUE(encloses(sum, e, polynomial_part(y, e) + small * polynomial_part(x, e), small * x.r + 1e-16));
+  }
+  // A coefficient above the threshold is multiplied out as before: the remainder then holds only rounding.
+  EXPECT_LT(obsgain::chain_detail::combine(1.0, y, 1e-7, x, 0.0, x).r - y.r - 1e-7 * x.r, 1e-15);
+  using DualForm = obsgain::Dual<obsgain::Taylor>;
+  const DualForm u = DualForm::variable(y, 0, 1), v = 3.0 * DualForm::variable(x, 0, 1);
+  const DualForm w = obsgain::chain_detail::combine(1.0, u, small, v, 0.0, u);
+  EXPECT_NEAR(w.value.r - y.r, 3.0 * widening, 1e-15);
+  EXPECT_EQ(w.derivative[0].c, 1.0);
+  EXPECT_NEAR(w.derivative[0].r, 3.0 * small, 1e-12 * small);
+}
+
+namespace {
+
+// Σ_t ||Σ_j w_j C_jt||_F + Σ_j |w_j| r_j in long double: what largest_combination_frobenius_upper bounds, to about 1e-19.
+long double combination_size(const std::vector<obsgain::TaylorMatrix>& terms, const Eigen::VectorXd& w) {
+  const auto coefficient = [](const obsgain::TaylorMatrix& X, std::size_t t) -> const Eigen::MatrixXd& {
+    return t == 0 ? X.centre : t <= X.slopes.size() ? X.slopes[t - 1] : X.curvatures[t - 1 - X.slopes.size()];
+  };
+  long double size = 0.0L;
+  for (std::size_t j = 0; j < terms.size(); ++j) size += std::abs(static_cast<long double>(w(static_cast<Eigen::Index>(j)))) * terms[j].remainder;
+  for (std::size_t t = 0; t < 1 + terms[0].slopes.size() + terms[0].curvatures.size(); ++t) {
+    long double squares = 0.0L;
+    for (Eigen::Index e = 0; e < terms[0].centre.size(); ++e) {
+      long double entry = 0.0L;
+      for (std::size_t j = 0; j < terms.size(); ++j)
+        entry += static_cast<long double>(w(static_cast<Eigen::Index>(j))) * coefficient(terms[j], t).reshaped()(e);
+      squares += entry * entry;
+    }
+    size += std::sqrt(squares);
+  }
+  return size;
+}
+
+}  // namespace
+
+// The inertia floor's route bounds many combinations' cheap bound at once through Gram matrices, without forming them.
+// Random terms, and terms that nearly cancel (X_1 = X_0 + 1e-9 noise, weights ±1: a combination 1e9 times smaller
+// than its terms, where the Gram matrix's rounding is largest against the value): the bound is never below the value
+// computed in long double, and above the bound of the combination formed by at most √γ of the terms' size.
+TEST(TaylorMatrices, CombinationBoundsFromGramMatricesHoldAndAreTight) {
   std::mt19937_64 rng(11);
   std::uniform_real_distribution<double> unit(-1.0, 1.0);
-  for (int trial = 0; trial < 20; ++trial) {
-    const int n = 2 + trial % 5, symbols = 1 + trial % 4;
+  for (int trial = 0; trial < 24; ++trial) {
+    const int n = 2 + trial % 6, symbols = 1 + trial % 4;
+    const bool cancelling = trial % 3 == 0;
     std::vector<obsgain::TaylorMatrix> terms;
+    std::vector<obsgain::Taylor> first;  // X_0's entries
     for (int j = 0; j < n; ++j) {
       std::vector<obsgain::Taylor> entries;
       for (int e = 0; e < n * n; ++e) {
         obsgain::Taylor x = obsgain::Taylor::symbol(unit(rng), 0.3 * unit(rng), e % symbols);
         for (int k = 0; k < symbols; ++k) x = x * cos(obsgain::Taylor::symbol(unit(rng), 0.2, k));
-        entries.push_back(x);
+        entries.push_back(cancelling && j == 1 ? first[static_cast<std::size_t>(e)] + 1e-9 * x : x);
       }
+      if (j == 0) first = entries;
       terms.push_back(obsgain::taylor_matrix(entries.data(), n, n, symbols));
     }
-    Eigen::VectorXd w(n);
-    for (int j = 0; j < n; ++j) w(j) = j == trial % n ? 0.0 : 3.0 * unit(rng);
+    Eigen::MatrixXd W(n, 5);
+    for (Eigen::Index c = 0; c < W.cols(); ++c)
+      for (int j = 0; j < n; ++j) W(j, c) = cancelling ? (j == 0 ? 1.0 : j == 1 ? -1.0 : 0.0) : 3.0 * unit(rng);
     const std::vector<double> frobenius = obsgain::frobenius_uppers(terms);
-    EXPECT_EQ(obsgain::linear_combination_frobenius_upper(terms, w, frobenius),
-              obsgain::linear_combination(terms, w, frobenius).frobenius_upper());
+    const Eigen::Map<const Eigen::VectorXd> sizes(frobenius.data(), n);
+    long double exact = 0.0L;
+    double formed = 0.0, scale = 0.0;
+    for (Eigen::Index c = 0; c < W.cols(); ++c) {
+      exact = std::max(exact, combination_size(terms, W.col(c)));
+      formed = std::max(formed, obsgain::linear_combination(terms, W.col(c), frobenius).frobenius_upper());
+      scale = std::max(scale, W.col(c).cwiseAbs().dot(sizes));
+    }
+    const double bound = obsgain::largest_combination_frobenius_upper(terms, W);
+    EXPECT_GE(static_cast<long double>(bound), exact) << "trial " << trial;
+    // The Gram matrices' rounding costs at most about √γ (1e-7) of the terms' size Σ_j |w_j| ||X_j||: relative to the
+    // value, that is 1e-7 on random terms and up to 1e-4 on cancelling ones.
+    EXPECT_LE(bound, formed + 2e-7 * scale) << "trial " << trial;
+    if (!cancelling) EXPECT_LE(bound, formed * (1.0 + 1e-7)) << "trial " << trial;
   }
 }
 

@@ -24,11 +24,13 @@ struct BoxCosts {
   double inertia;     // M over the box as Taylor forms, and its derivatives on intervals
   double forms;       // M with its derivatives and the Christoffel tensors, as forms
   double products;    // M⁻¹ and the products M⁻¹J_j
+  double failed_inverse;  // M⁻¹ attempted on a box too wide for it
   double vertex;      // one velocity vertex's A(w) and its envelope (`symbols` then counts the velocity's too)
   double refinement;  // one fine norm or eigenvalue bound of an n x n form
   double choice;      // one pattern's cheap bound, or a centre's Cholesky test
   double point;       // the value attained at the box's midpoint (every vertex and pattern, in double)
-  double jacobian_vertex;  // one vertex's J(w) = Σ_j w_j J_j and its cheap bound (B, and the inertia floor's route)
+  double jacobian_vertex;  // one vertex's J(w) = Σ_j w_j J_j and its cheap bound (B's search)
+  double inertia_route;    // the cheap bounds of J(w) at every vertex at once (the inertia floor's route)
 };
 BoxCosts box_costs(int n, int symbols, bool frictionless);
 

@@ -43,10 +43,10 @@ TaylorMatrix taylor_matrix(const Taylor* entries, int rows, int cols, int symbol
 // frobenius_upper(), computed once for the many combinations of the same terms.
 TaylorMatrix linear_combination(const std::vector<TaylorMatrix>& terms, const Eigen::VectorXd& weights,
                                 const std::vector<double>& frobenius);
-// linear_combination(terms, weights, frobenius).frobenius_upper(), to the bit, without forming the combination: the
-// cheap bound of many combinations (the inertia floor's route, bounds/box_bounds.cpp) without their storage.
-double linear_combination_frobenius_upper(const std::vector<TaylorMatrix>& terms, const Eigen::VectorXd& weights,
-                                         const std::vector<double>& frobenius);
+// An upper bound of max over W's columns w of linear_combination(terms, w, ·).frobenius_upper(), without forming the
+// combinations (one Gram matrix of the terms per coefficient): the cheap bound of many combinations at once, the
+// inertia floor's route (bounds/box_bounds.cpp).
+double largest_combination_frobenius_upper(const std::vector<TaylorMatrix>& terms, const Eigen::MatrixXd& W);
 // The same with some weights free: Σ_j w_j X_j over the fixed ones, plus Σ_j V_j ω_j X_j over the free ones
 // (`free[j]`, V_j = weights(j)), each ω_j ∈ [-1, 1] a symbol of its own after X's: its term's centre is a slope, its
 // slopes are curvatures with ω_j, and its curvatures (third order) join the remainder. Every weight in [-V_j, V_j] at

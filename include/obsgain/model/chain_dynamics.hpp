@@ -50,20 +50,34 @@ template <class S>
 Vec3<S> zero() {
   return {S(0.0), S(0.0), S(0.0)};
 }
-// Σ_j c_j x_j for constant c: on enclosures the zero coefficients are skipped (an axis along a coordinate axis makes
-// most of them zero, and every product and sum of forms costs work and adds rounding); in double, the plain sum.
+// sum + c x for a negligible c: by the scalar's own rule where it has one, found by argument-dependent lookup
+// (Taylor forms and their duals bound |c x| into the remainder), else the product itself.
+template <class S>
+void add_small_product(S& sum, double c, const S& x) {
+  sum = sum + c * x;
+}
+// Coefficients this small against the largest of a combination are bounded rather than multiplied: a URDF's
+// rotations by quarter turns carry entries of 1e-16 (cos(π/2) in double) that cost a product of forms each.
+inline constexpr double kSmallCoefficient = 1e-8;
+// Σ_j c_j x_j for constant c: on enclosures the zero coefficients are skipped and the negligible ones bounded (an axis
+// along a coordinate axis makes most of them zero, and every product and sum of forms costs work and adds rounding);
+// in double, the plain sum.
 template <class S>
 S combine(double c0, const S& x0, double c1, const S& x1, double c2, const S& x2) {
   if constexpr (std::is_same_v<S, double>) {
     return c0 * x0 + c1 * x1 + c2 * x2;
   } else {
+    const std::array<std::pair<double, const S*>, 3> terms{{{c0, &x0}, {c1, &x1}, {c2, &x2}}};
+    const double small = kSmallCoefficient * std::max({std::abs(c0), std::abs(c1), std::abs(c2)});
     S sum(0.0);
     bool any = false;
-    for (const auto& [c, x] : {std::pair<double, const S*>{c0, &x0}, {c1, &x1}, {c2, &x2}}) {
-      if (c == 0.0) continue;
+    for (const auto& [c, x] : terms) {
+      if (std::abs(c) <= small) continue;
       sum = any ? sum + c * *x : c * *x;
       any = true;
     }
+    for (const auto& [c, x] : terms)
+      if (c != 0.0 && std::abs(c) <= small) add_small_product(sum, c, *x);
     return sum;
   }
 }

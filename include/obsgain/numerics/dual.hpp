@@ -106,6 +106,21 @@ Dual<T>& operator*=(Dual<T>& a, const Dual<T>& b) {
   return a = a * b;
 }
 
+// sum + c x for a negligible constant c, component by component by the value type's own rule where it has one
+// (Taylor forms: into the remainder, numerics/taylor.hpp), else computed.
+template <class T>
+void add_small_product(Dual<T>& sum, double c, const Dual<T>& x) {
+  const auto add = [c](T& s, const T& y) {
+    if constexpr (requires { add_small_product(s, c, y); })
+      add_small_product(s, c, y);
+    else
+      s = s + c * y;
+  };
+  add(sum.value, x.value);
+  sum.directions = std::max(sum.directions, x.directions);
+  for (int k = 0; k < x.directions; ++k) add(sum.derivative[k], x.derivative[k]);
+}
+
 // sin and cos of the value type are found by argument-dependent lookup (std:: for double, boost::numeric::
 // for intervals).
 template <class T>

@@ -165,9 +165,12 @@ inline Taylor operator-(const Taylor& x) {
 
 inline Taylor operator-(const Taylor& x, const Taylor& y) { return x + (-y); }
 
-// Each product rounded within 2⁻⁵² of its modulus, which is at most (1 + 2⁻⁵²) |s| times the coefficient's.
+// Each product rounded within 2⁻⁵² of its modulus, which is at most (1 + 2⁻⁵²) |s| times the coefficient's. Products by
+// 0 and ±1 are exact (a constant rotation's or an axis' entries): taken without arithmetic, 0 x as the exact zero.
 inline Taylor operator*(double s, const Taylor& x) {
-  if (x.is_zero()) return x;
+  if (x.is_zero() || s == 1.0) return x;
+  if (s == 0.0) return Taylor(0.0);
+  if (s == -1.0) return -x;
   Taylor z(s * x.c);
   z.symbols = x.symbols;
   double moduli = std::abs(x.c);
@@ -216,6 +219,12 @@ inline Taylor operator*(const Taylor& x, const Taylor& y) {
 }
 
 inline Taylor operator*(const Taylor& x, double s) { return s * x; }
+// sum + s x for a coefficient s negligible against those it is combined with (a placement's 1e-16 entries,
+// model/chain_dynamics.hpp): |s x| <= |s| (|x.c| + radius) joins the remainder, without the product and the sum.
+inline void add_small_product(Taylor& sum, double s, const Taylor& x) {
+  if (x.is_zero() || s == 0.0) return;
+  sum.r = taylor_detail::up(sum.r + std::abs(s) * taylor_detail::up(std::abs(x.c) + x.radius()));
+}
 inline Taylor operator+(double s, const Taylor& x) { return Taylor(s) + x; }
 inline Taylor operator+(const Taylor& x, double s) { return x + Taylor(s); }
 inline Taylor operator-(double s, const Taylor& x) { return Taylor(s) - x; }
