@@ -140,6 +140,8 @@ TaylorMatrix linear_combination(const std::vector<TaylorMatrix>& terms, const Ei
   return X;
 }
 
+namespace {
+
 // Coefficient t of every term, term j's as column j: 0 the centre, then the slopes, then the curvatures.
 Eigen::MatrixXd coefficient_columns(const std::vector<TaylorMatrix>& terms, std::size_t t) {
   const TaylorMatrix& first = terms[0];
@@ -151,6 +153,8 @@ Eigen::MatrixXd coefficient_columns(const std::vector<TaylorMatrix>& terms, std:
   }
   return C;
 }
+
+}  // namespace
 
 // Each coefficient's ||Σ_j w_j C_j||_F² is wᵀ G w with G = CᵀC, C's columns the terms' coefficients: one Gram
 // matrix per coefficient serves every column of W, and no combination is formed, so its sums leave no rounding in
