@@ -88,17 +88,11 @@ BoxBound lipschitz_by_inertia_floor(const Model& model, double floor, const BoxF
 class PatternColumns {
  public:
   PatternColumns(const TaylorMatrix& A, const TaylorMatrix& R) : remainder_(A.remainder + R.remainder) {
-    const auto terms = static_cast<Eigen::Index>(1 + A.slopes.size() + A.curvatures.size());
-    on_.resize(terms, A.centre.cols());
-    off_.resize(terms, A.centre.cols());
-    const auto term = [](const TaylorMatrix& X, Eigen::Index t) -> const Eigen::MatrixXd& {
-      if (t == 0) return X.centre;
-      const auto k = static_cast<std::size_t>(t - 1);
-      return k < X.slopes.size() ? X.slopes[k] : X.curvatures[k - X.slopes.size()];
-    };
-    for (Eigen::Index t = 0; t < terms; ++t) {
-      on_.row(t) = (term(A, t) + term(R, t)).colwise().norm();
-      off_.row(t) = term(R, t).colwise().norm();
+    on_.resize(A.parts(), A.centre.cols());
+    off_.resize(A.parts(), A.centre.cols());
+    for (int t = 0; t < A.parts(); ++t) {
+      on_.row(t) = (A.part(t) + R.part(t)).colwise().norm();
+      off_.row(t) = R.part(t).colwise().norm();
     }
   }
   // Pattern `bits` (bit j: d_j = 1): the centre's Frobenius norm, and the variation. Each a sum of norms rounded up

@@ -142,15 +142,10 @@ TaylorMatrix linear_combination(const std::vector<TaylorMatrix>& terms, const Ei
 
 namespace {
 
-// Coefficient t of every term, term j's as column j: 0 the centre, then the slopes, then the curvatures.
-Eigen::MatrixXd coefficient_columns(const std::vector<TaylorMatrix>& terms, std::size_t t) {
-  const TaylorMatrix& first = terms[0];
-  Eigen::MatrixXd C(first.centre.size(), static_cast<Eigen::Index>(terms.size()));
-  for (std::size_t j = 0; j < terms.size(); ++j) {
-    const TaylorMatrix& X = terms[j];
-    const Eigen::MatrixXd& c = t == 0 ? X.centre : t <= X.slopes.size() ? X.slopes[t - 1] : X.curvatures[t - 1 - X.slopes.size()];
-    C.col(static_cast<Eigen::Index>(j)) = c.reshaped();
-  }
+// Part t of every term (TaylorMatrix::part), term j's as column j.
+Eigen::MatrixXd part_columns(const std::vector<TaylorMatrix>& terms, int t) {
+  Eigen::MatrixXd C(terms[0].centre.size(), static_cast<Eigen::Index>(terms.size()));
+  for (std::size_t j = 0; j < terms.size(); ++j) C.col(static_cast<Eigen::Index>(j)) = terms[j].part(t).reshaped();
   return C;
 }
 
@@ -167,11 +162,10 @@ double largest_combination_frobenius_upper(const std::vector<TaylorMatrix>& term
   Eigen::VectorXd remainders(m);
   for (Eigen::Index j = 0; j < m; ++j) remainders(j) = terms[static_cast<std::size_t>(j)].remainder;
   Eigen::RowVectorXd bound = (W_abs.transpose() * remainders).transpose();  // Σ_j |w_j| r_j
-  const std::size_t coefficients = 1 + terms[0].slopes.size() + terms[0].curvatures.size();
   const double rounding = 1.01 * gamma(static_cast<int>(terms[0].centre.size() + 2 * m + 2));
   Eigen::VectorXd norms(m);
-  for (std::size_t t = 0; t < coefficients; ++t) {
-    const Eigen::MatrixXd C = coefficient_columns(terms, t);
+  for (int t = 0; t < terms[0].parts(); ++t) {
+    const Eigen::MatrixXd C = part_columns(terms, t);
     for (Eigen::Index j = 0; j < m; ++j) norms(j) = up(std::sqrt(up(C.col(j).squaredNorm())));
     const Eigen::MatrixXd G = C.transpose() * C;
     const Eigen::RowVectorXd squares = W.cwiseProduct(G * W).colwise().sum();
@@ -479,11 +473,6 @@ namespace {
 struct CoefficientMatrices {
   TaylorMatrix X;
   Eigen::MatrixXd linear, quadratic, total;
-  // The centre (t = 0), the slopes (1 ... symbols), then the curvatures.
-  const Eigen::MatrixXd& term(int t) const {
-    const int symbols = X.symbols();
-    return t == 0 ? X.centre : t <= symbols ? X.slopes[t - 1] : X.curvatures[t - 1 - symbols];
-  }
 };
 
 CoefficientMatrices coefficient_matrices(const std::vector<Taylor>& X, int rows, int cols, int symbols) {
@@ -501,7 +490,7 @@ CoefficientMatrices coefficient_matrices(const std::vector<Taylor>& X, int rows,
   return m;
 }
 
-// Row-major forms from one matrix per coefficient (as above) and each entry's remainder, rounded up.
+// Row-major forms from one matrix per part (in TaylorMatrix::part's numbering) and each entry's remainder, rounded up.
 std::vector<Taylor> forms_of(const std::vector<Eigen::MatrixXd>& terms, const Eigen::MatrixXd& remainder, int symbols) {
   const auto rows = static_cast<int>(remainder.rows()), cols = static_cast<int>(remainder.cols());
   std::vector<Taylor> X(static_cast<std::size_t>(rows * cols));
@@ -535,17 +524,17 @@ std::vector<Taylor> product(const std::vector<Taylor>& A, const std::vector<Tayl
   const int symbols = std::max(symbols_of(A), symbols_of(B));
   const CoefficientMatrices a = coefficient_matrices(A, rows, inner, symbols), b = coefficient_matrices(B, inner, cols, symbols);
   std::vector<Eigen::MatrixXd> c(static_cast<std::size_t>(1 + symbols + pair_count(symbols)));
-  c[0].noalias() = a.term(0) * b.term(0);
+  c[0].noalias() = a.X.part(0) * b.X.part(0);
   for (int k = 0; k < symbols; ++k) {
-    c[1 + k].noalias() = a.term(0) * b.term(1 + k);
-    c[1 + k].noalias() += a.term(1 + k) * b.term(0);
+    c[1 + k].noalias() = a.X.part(0) * b.X.part(1 + k);
+    c[1 + k].noalias() += a.X.part(1 + k) * b.X.part(0);
   }
   for (int p = 0; p < pair_count(symbols); ++p) {
     const int k = kPairs.first[p], l = kPairs.second[p], t = 1 + symbols + p;
-    c[t].noalias() = a.term(0) * b.term(t);
-    c[t].noalias() += a.term(t) * b.term(0);
-    c[t].noalias() += a.term(1 + k) * b.term(1 + l);
-    if (k != l) c[t].noalias() += a.term(1 + l) * b.term(1 + k);
+    c[t].noalias() = a.X.part(0) * b.X.part(t);
+    c[t].noalias() += a.X.part(t) * b.X.part(0);
+    c[t].noalias() += a.X.part(1 + k) * b.X.part(1 + l);
+    if (k != l) c[t].noalias() += a.X.part(1 + l) * b.X.part(1 + k);
   }
   Eigen::MatrixXd remainder;
   {
@@ -586,7 +575,7 @@ std::vector<Taylor> left_multiply(const Eigen::MatrixXd& K, const std::vector<Ta
   const int symbols = symbols_of(X);
   const CoefficientMatrices x = coefficient_matrices(X, static_cast<int>(K.cols()), n, symbols);
   std::vector<Eigen::MatrixXd> y(static_cast<std::size_t>(1 + symbols + pair_count(symbols)));
-  for (std::size_t t = 0; t < y.size(); ++t) y[t].noalias() = K * x.term(static_cast<int>(t));
+  for (std::size_t t = 0; t < y.size(); ++t) y[t].noalias() = K * x.X.part(static_cast<int>(t));
   Eigen::MatrixXd remainder;
   {
     const UpwardRounding upward;

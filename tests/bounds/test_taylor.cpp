@@ -142,17 +142,14 @@ namespace {
 
 // Σ_t ||Σ_j w_j C_jt||_F + Σ_j |w_j| r_j in long double: what largest_combination_frobenius_upper bounds, to about 1e-19.
 long double combination_size(const std::vector<obsgain::TaylorMatrix>& terms, const Eigen::VectorXd& w) {
-  const auto coefficient = [](const obsgain::TaylorMatrix& X, std::size_t t) -> const Eigen::MatrixXd& {
-    return t == 0 ? X.centre : t <= X.slopes.size() ? X.slopes[t - 1] : X.curvatures[t - 1 - X.slopes.size()];
-  };
   long double size = 0.0L;
   for (std::size_t j = 0; j < terms.size(); ++j) size += std::abs(static_cast<long double>(w(static_cast<Eigen::Index>(j)))) * terms[j].remainder;
-  for (std::size_t t = 0; t < 1 + terms[0].slopes.size() + terms[0].curvatures.size(); ++t) {
+  for (int t = 0; t < terms[0].parts(); ++t) {
     long double squares = 0.0L;
     for (Eigen::Index e = 0; e < terms[0].centre.size(); ++e) {
       long double entry = 0.0L;
       for (std::size_t j = 0; j < terms.size(); ++j)
-        entry += static_cast<long double>(w(static_cast<Eigen::Index>(j))) * coefficient(terms[j], t).reshaped()(e);
+        entry += static_cast<long double>(w(static_cast<Eigen::Index>(j))) * terms[j].part(t).reshaped()(e);
       squares += entry * entry;
     }
     size += std::sqrt(squares);

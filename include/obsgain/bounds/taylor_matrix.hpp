@@ -30,6 +30,12 @@ struct TaylorMatrix {
   Eigen::MatrixXd entry_remainder;
 
   int symbols() const { return static_cast<int>(slopes.size()); }
+  // Its parts in one numbering: 0 the centre, then the slopes G_k, then the curvatures H_kl.
+  int parts() const { return static_cast<int>(1 + slopes.size() + curvatures.size()); }
+  const Eigen::MatrixXd& part(int t) const {
+    const int s = symbols();
+    return t == 0 ? centre : t <= s ? slopes[static_cast<std::size_t>(t - 1)] : curvatures[static_cast<std::size_t>(t - 1 - s)];
+  }
   // An upper bound of ||X(ε)||_F over the box (cheap, first order): ||C||_F + Σ ||G_k||_F + Σ ||H_kl||_F + remainder.
   double frobenius_upper() const;
   // |X(ε) - C| <= spread entrywise over the box, rounded up.
