@@ -157,16 +157,17 @@ double refine_choices(std::vector<Choice>& choices, double lower, const Refine& 
 BoxCosts box_costs(int n, int symbols, bool frictionless) {
   // Seconds on the reference machine, the suite's (two cores): each step timed there on one core, per box, on
   // examples/arm6.urdf, arm7.urdf, iiwa14.urdf and the UR5 with armature, and halved for the two cores (the forms and
-  // the inertia floor's route refitted in the seventh round of issue 18, after they became faster; the inertia step is
-  // an older fit's). The count runs a quarter ahead of that, so that a default design, whose numeric search comes
+  // the inertia floor's route refitted in the seventh round of issue 18, after they became faster, the forms and the
+  // products scaled in the eighth by how much faster they then became against the seventh's code on one machine; the
+  // inertia step is an older fit's). The count runs a quarter ahead of that, so that a default design, whose numeric search comes
   // first, ends within its budget on every arm measured (docs/theory.md, "The budget"). `terms`: a Taylor matrix's
   // n x n parts (centre, slopes, curvatures).
   constexpr double ahead = 1.25;
   const double n1 = n, n2 = n1 * n1, n3 = n2 * n1, s = symbols, terms = 1.0 + s + pair_count(symbols);
   const double vertices = std::ldexp(1.0, frictionless ? n - 1 : n);
-  const double products = ahead * (17e-6 + 17e-9 * n2 * n2 * s);
+  const double products = ahead * (14.45e-6 + 14.45e-9 * n2 * n2 * s);
   return {.inertia = 0.75e-6 * n3,
-          .forms = ahead * (15.5e-6 + 0.95e-6 * n3 * (1.0 + 0.047 * s)),
+          .forms = ahead * (12.4e-6 + 0.76e-6 * n3 * (1.0 + 0.047 * s)),
           .products = products,
           .failed_inverse = 0.3 * products,
           .vertex = ahead * (0.39e-6 + 2.7e-9 * n2 * terms),

@@ -2,6 +2,10 @@
 
 #include "obsgain/numerics/interval.hpp"
 
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
 namespace obsgain {
 
 Eigen::VectorXd symmetric_eigenvalues(const Eigen::MatrixXd& S) {
@@ -40,10 +44,19 @@ double smallest_eigenvalue_lower(const Eigen::MatrixXd& S) {
 }
 
 double spectral_norm_upper(const Eigen::MatrixXd& B) {
-  Eigen::MatrixXd dilation = Eigen::MatrixXd::Zero(B.rows() + B.cols(), B.rows() + B.cols());
-  dilation.topRightCorner(B.rows(), B.cols()) = B;
-  dilation.bottomLeftCorner(B.cols(), B.rows()) = B.transpose();
-  return largest_eigenvalue_upper(dilation);
+  if (B.isZero(0.0)) return 0.0;  // exactly (also empty)
+  const bool tall = B.rows() >= B.cols();
+  const Eigen::MatrixXd G = tall ? Eigen::MatrixXd(B.transpose() * B) : Eigen::MatrixXd(B * B.transpose());
+  const double lambda = largest_eigenvalue_upper(G);
+  if (std::isnan(lambda)) return std::numeric_limits<double>::infinity();
+  const double top = std::max(0.0, lambda);
+  const double inner = static_cast<double>(tall ? B.rows() : B.cols()), size = static_cast<double>(G.size());
+  const UpwardRounding upward;
+  // ||B||_F², every term non-negative and rounded up; the Gram matrix's rounding in norm, underflow included.
+  const double frobenius_squared = B.squaredNorm();
+  const Interval rounding = Interval(1.01 * (inner + 2.0) * 0x1p-52) * Interval(frobenius_squared) +
+                            Interval(inner * size * 0x1p-1074);
+  return sqrt(Interval(top) + rounding).upper();
 }
 
 }  // namespace obsgain

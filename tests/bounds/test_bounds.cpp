@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <numbers>
+#include <utility>
 
 namespace {
 
@@ -93,6 +94,27 @@ namespace {
 
 // A rotated nilpotent Φ = a u vᵀ (u ⊥ v): ||T Φ T⁻¹|| = a ||T u|| ||T⁻ᵀ v|| >= a / cond(T), attained by T = D Rᵀ. No
 // diagonal T helps here (its minimum is a, at T = I); the best full T with cond(T) <= κ reaches a / κ exactly.
+// ||B||₂ proven from the smaller Gram matrix: never below the largest singular value (Jacobi SVD; a rank-one u vᵀ, whose
+// norm is |u| |v|), and above it by the eigenvalue pad and the Gram matrix's rounding only, for square, tall and wide
+// matrices. On entries of 1e-162, whose squares underflow to 0, the bound rests on the underflow term alone and still
+// holds; the zero matrix's is 0.
+TEST(Spectrum, SpectralNormUpperHoldsAndIsTight) {
+  std::srand(7);
+  const auto check = [](const Eigen::MatrixXd& B, double sigma, double slack) {
+    const double bound = obsgain::spectral_norm_upper(B);
+    EXPECT_GE(bound, sigma) << B.rows() << " x " << B.cols();
+    EXPECT_LE(bound, sigma * (1.0 + slack)) << B.rows() << " x " << B.cols();
+  };
+  for (const auto& [rows, cols] : {std::pair{7, 7}, std::pair{14, 7}, std::pair{7, 14}, std::pair{3, 1}}) {
+    const Eigen::MatrixXd B = Eigen::MatrixXd::Random(rows, cols) * 40.0;
+    check(B, Eigen::JacobiSVD<Eigen::MatrixXd>(B).singularValues()(0) * (1.0 - 1e-14), 1e-11);
+  }
+  const Eigen::VectorXd u = Eigen::VectorXd::LinSpaced(6, 1.0, 6.0), v = Eigen::VectorXd::LinSpaced(6, -2.0, 3.0);
+  check(u * v.transpose(), u.norm() * v.norm() * (1.0 - 1e-15), 1e-11);
+  check(Eigen::MatrixXd::Constant(7, 7, 1e-162), 7e-162, 10.0);
+  EXPECT_EQ(obsgain::spectral_norm_upper(Eigen::MatrixXd::Zero(4, 4)), 0.0);
+}
+
 TEST(SimilarityScaling, ReachesTheAnalyticMinimumWhereNoDiagonalScalingHelps) {
   const double a = 4.0, kappa = 30.0;
   const Eigen::Vector2d u(std::sqrt(0.5), std::sqrt(0.5)), v(-std::sqrt(0.5), std::sqrt(0.5));

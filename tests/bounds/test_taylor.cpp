@@ -21,6 +21,8 @@
 #include <numeric>
 #include <random>
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace {
 
@@ -37,6 +39,14 @@ double polynomial_part(const obsgain::Taylor& x, const std::vector<double>& epsi
 }
 bool encloses(const obsgain::Taylor& x, const std::vector<double>& epsilon, double value, double slack) {
   return std::abs(value - polynomial_part(x, epsilon)) <= x.r + slack;
+}
+// Two forms equal to the bit.
+void expect_same(const obsgain::Taylor& a, const obsgain::Taylor& b) {
+  EXPECT_EQ(a.c, b.c);
+  EXPECT_EQ(a.r, b.r);
+  ASSERT_EQ(a.symbols, b.symbols);
+  for (int k = 0; k < a.symbols; ++k) EXPECT_EQ(a.a[k], b.a[k]);
+  for (int p = 0; p < obsgain::pair_count(a.symbols); ++p) EXPECT_EQ(a.b[p], b.b[p]);
 }
 
 TEST(TaylorForms, EncloseCosineSineAndProductsAtRandomPoints) {
@@ -86,13 +96,9 @@ TEST(TaylorForms, TheExactZeroStaysExact) {
   EXPECT_TRUE((x * zero).is_zero());
   EXPECT_TRUE((zero * x).is_zero());
   EXPECT_TRUE((2.5 * zero).is_zero());
-  for (const obsgain::Taylor& sum : {x + zero, zero + x, x - zero}) {
-    EXPECT_EQ(sum.c, x.c);
-    EXPECT_EQ(sum.r, x.r);
-    ASSERT_EQ(sum.symbols, x.symbols);
-    for (int k = 0; k < x.symbols; ++k) EXPECT_EQ(sum.a[k], x.a[k]);
-    for (int p = 0; p < obsgain::pair_count(x.symbols); ++p) EXPECT_EQ(sum.b[p], x.b[p]);
-  }
+  for (const obsgain::Taylor& sum : {x + zero, zero + x, x - zero}) expect_same(sum, x);
+  // A value-initialised form (std::vector<Taylor>(n)) is the exact zero, although its coefficients are not cleared.
+  for (const obsgain::Taylor& entry : std::vector<obsgain::Taylor>(3)) EXPECT_TRUE(entry.is_zero());
   // A constant 0 with a remainder is not the exact zero: its products are bounded as before.
   obsgain::Taylor small(0.0);
   small.r = 1e-3;
@@ -107,13 +113,6 @@ TEST(TaylorForms, TheExactZeroStaysExact) {
 TEST(TaylorForms, ProductsByExactAndNegligibleConstants) {
   const obsgain::Taylor x = cos(obsgain::Taylor::symbol(0.3, 0.2, 0)) * obsgain::Taylor::symbol(2.0, 0.5, 1);
   const obsgain::Taylor y = sin(obsgain::Taylor::symbol(-0.7, 0.3, 1));
-  const auto expect_same = [](const obsgain::Taylor& a, const obsgain::Taylor& b) {
-    EXPECT_EQ(a.c, b.c);
-    EXPECT_EQ(a.r, b.r);
-    ASSERT_EQ(a.symbols, b.symbols);
-    for (int k = 0; k < a.symbols; ++k) EXPECT_EQ(a.a[k], b.a[k]);
-    for (int p = 0; p < obsgain::pair_count(a.symbols); ++p) EXPECT_EQ(a.b[p], b.b[p]);
-  };
   expect_same(1.0 * x, x);
   expect_same(-1.0 * x, -x);
   EXPECT_TRUE((0.0 * x).is_zero());
@@ -136,6 +135,48 @@ TEST(TaylorForms, ProductsByExactAndNegligibleConstants) {
   EXPECT_NEAR(w.value.r - y.r, 3.0 * widening, 1e-15);
   EXPECT_EQ(w.derivative[0].c, 1.0);
   EXPECT_NEAR(w.derivative[0].r, 3.0 * small, 1e-12 * small);
+}
+
+// The operations that write into a given form (a dual's derivatives are computed where they live) give the operators'
+// results to the bit when the form written is one of the operands: x += y with x of fewer symbols than y and of more,
+// y = x + y, x = s x and x = -x. A dual's sum, difference, product and sum of a multiple are, derivative by
+// derivative, the operators' on its components (the product rule).
+TEST(TaylorForms, InPlaceOperationsAliasTheirOperands) {
+  using obsgain::Taylor;
+  const Taylor x = cos(Taylor::symbol(0.3, 0.2, 0)) * Taylor::symbol(2.0, 0.5, 2);     // 3 symbols
+  const Taylor y = sin(Taylor::symbol(-0.7, 0.3, 4)) + Taylor::symbol(0.1, 0.05, 1);  // 5 symbols
+  for (const auto& [first, second] : {std::pair{x, y}, std::pair{y, x}}) {
+    Taylor into_first = first;
+    into_first += second;
+    expect_same(into_first, first + second);
+    Taylor into_second = second;
+    obsgain::add_into(into_second, first, into_second);
+    expect_same(into_second, first + second);
+  }
+  Taylor scaled = x;
+  obsgain::scale_into(scaled, 2.5, scaled);
+  expect_same(scaled, 2.5 * x);
+  Taylor negated = y;
+  obsgain::negate_into(negated, negated);
+  expect_same(negated, -y);
+  Taylor accumulated = y;
+  obsgain::add_product(accumulated, -0.75, x);
+  expect_same(accumulated, y + (-0.75) * x);
+
+  using DualForm = obsgain::Dual<Taylor>;
+  DualForm u = DualForm::variable(x, 0, 2), v = DualForm::variable(y, 1, 2);
+  u.derivative[1] = y;
+  v.derivative[0] = 0.5 * x;
+  const DualForm product = u * v, difference = u - v, sum = u + v;
+  DualForm combination = v;
+  obsgain::add_product(combination, 3.0, u);
+  expect_same(product.value, x * y);
+  for (int k = 0; k < 2; ++k) {
+    expect_same(product.derivative[k], u.derivative[k] * v.value + u.value * v.derivative[k]);
+    expect_same(difference.derivative[k], u.derivative[k] - v.derivative[k]);
+    expect_same(sum.derivative[k], u.derivative[k] + v.derivative[k]);
+    expect_same(combination.derivative[k], v.derivative[k] + 3.0 * u.derivative[k]);
+  }
 }
 
 namespace {

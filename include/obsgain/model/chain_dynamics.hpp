@@ -50,6 +50,11 @@ template <class S>
 Vec3<S> zero() {
   return {S(0.0), S(0.0), S(0.0)};
 }
+// sum + c x, in place where the scalar can (Taylor forms and their duals, found by argument-dependent lookup).
+template <class S>
+void add_product(S& sum, double c, const S& x) {
+  sum = sum + c * x;
+}
 // sum + c x for a negligible c: by the scalar's own rule where it has one, found by argument-dependent lookup
 // (Taylor forms and their duals bound |c x| into the remainder), else the product itself.
 template <class S>
@@ -70,12 +75,8 @@ S combine(double c0, const S& x0, double c1, const S& x1, double c2, const S& x2
     const std::array<std::pair<double, const S*>, 3> terms{{{c0, &x0}, {c1, &x1}, {c2, &x2}}};
     const double small = kSmallCoefficient * std::max({std::abs(c0), std::abs(c1), std::abs(c2)});
     S sum(0.0);
-    bool any = false;
-    for (const auto& [c, x] : terms) {
-      if (std::abs(c) <= small) continue;
-      sum = any ? sum + c * *x : c * *x;
-      any = true;
-    }
+    for (const auto& [c, x] : terms)
+      if (std::abs(c) > small) add_product(sum, c, *x);
     for (const auto& [c, x] : terms)
       if (c != 0.0 && std::abs(c) <= small) add_small_product(sum, c, *x);
     return sum;

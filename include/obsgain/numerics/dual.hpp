@@ -38,39 +38,94 @@ struct Dual {
   }
 };
 
+namespace dual_detail {
+
+// z = x + y, z = s x, z = x y: written in place where the value type can (Taylor forms, numerics/taylor.hpp, whose
+// values are kilobytes: a temporary and its copy per derivative would cost as much as the arithmetic), else assigned.
 template <class T>
-Dual<T> operator+(const Dual<T>& a, const Dual<T>& b) {
-  Dual<T> r(a.value + b.value);
-  r.directions = std::max(a.directions, b.directions);
-  for (int k = 0; k < r.directions; ++k) r.derivative[k] = a.derivative[k] + b.derivative[k];
-  return r;
+void sum(T& z, const T& x, const T& y) {
+  if constexpr (requires { add_into(z, x, y); })
+    add_into(z, x, y);
+  else
+    z = x + y;
 }
 template <class T>
-Dual<T> operator-(const Dual<T>& a, const Dual<T>& b) {
-  Dual<T> r(a.value - b.value);
+void negated(T& z, const T& x) {
+  if constexpr (requires { negate_into(z, x); })
+    negate_into(z, x);
+  else
+    z = -x;
+}
+template <class T>
+void difference(T& z, const T& x, const T& y) {
+  if constexpr (requires { negate_into(z, y); }) {
+    T minus_y;
+    negate_into(minus_y, y);
+    add_into(z, x, minus_y);
+  } else {
+    z = x - y;
+  }
+}
+template <class T>
+void scaled(T& z, double s, const T& x) {
+  if constexpr (requires { scale_into(z, s, x); })
+    scale_into(z, s, x);
+  else
+    z = s * x;
+}
+template <class T>
+void product(T& z, const T& x, const T& y) {
+  if constexpr (requires { multiply_into(z, x, y); })
+    multiply_into(z, x, y);
+  else
+    z = x * y;
+}
+
+}  // namespace dual_detail
+
+template <class T>
+Dual<T> operator+(const Dual<T>& a, const Dual<T>& b) {
+  Dual<T> r;
+  dual_detail::sum(r.value, a.value, b.value);
   r.directions = std::max(a.directions, b.directions);
-  for (int k = 0; k < r.directions; ++k) r.derivative[k] = a.derivative[k] - b.derivative[k];
+  for (int k = 0; k < r.directions; ++k) dual_detail::sum(r.derivative[k], a.derivative[k], b.derivative[k]);
   return r;
 }
 template <class T>
 Dual<T> operator-(const Dual<T>& a) {
-  Dual<T> r(-a.value);
+  Dual<T> r;
+  dual_detail::negated(r.value, a.value);
   r.directions = a.directions;
-  for (int k = 0; k < r.directions; ++k) r.derivative[k] = -a.derivative[k];
+  for (int k = 0; k < r.directions; ++k) dual_detail::negated(r.derivative[k], a.derivative[k]);
+  return r;
+}
+template <class T>
+Dual<T> operator-(const Dual<T>& a, const Dual<T>& b) {
+  Dual<T> r;
+  dual_detail::difference(r.value, a.value, b.value);
+  r.directions = std::max(a.directions, b.directions);
+  for (int k = 0; k < r.directions; ++k) dual_detail::difference(r.derivative[k], a.derivative[k], b.derivative[k]);
   return r;
 }
 template <class T>
 Dual<T> operator*(const Dual<T>& a, const Dual<T>& b) {
-  Dual<T> r(a.value * b.value);
+  Dual<T> r;
+  dual_detail::product(r.value, a.value, b.value);
   r.directions = std::max(a.directions, b.directions);
-  for (int k = 0; k < r.directions; ++k) r.derivative[k] = a.derivative[k] * b.value + a.value * b.derivative[k];
+  T left, right;
+  for (int k = 0; k < r.directions; ++k) {
+    dual_detail::product(left, a.derivative[k], b.value);
+    dual_detail::product(right, a.value, b.derivative[k]);
+    dual_detail::sum(r.derivative[k], left, right);
+  }
   return r;
 }
 template <class T>
 Dual<T> operator*(double a, const Dual<T>& b) {
-  Dual<T> r(a * b.value);
+  Dual<T> r;
+  dual_detail::scaled(r.value, a, b.value);
   r.directions = b.directions;
-  for (int k = 0; k < r.directions; ++k) r.derivative[k] = a * b.derivative[k];
+  for (int k = 0; k < r.directions; ++k) dual_detail::scaled(r.derivative[k], a, b.derivative[k]);
   return r;
 }
 template <class T>
@@ -95,7 +150,10 @@ Dual<T> operator-(const Dual<T>& a, double b) {
 }
 template <class T>
 Dual<T>& operator+=(Dual<T>& a, const Dual<T>& b) {
-  return a = a + b;
+  dual_detail::sum(a.value, a.value, b.value);
+  a.directions = std::max(a.directions, b.directions);
+  for (int k = 0; k < a.directions; ++k) dual_detail::sum(a.derivative[k], a.derivative[k], b.derivative[k]);
+  return a;
 }
 template <class T>
 Dual<T>& operator-=(Dual<T>& a, const Dual<T>& b) {
@@ -104,6 +162,19 @@ Dual<T>& operator-=(Dual<T>& a, const Dual<T>& b) {
 template <class T>
 Dual<T>& operator*=(Dual<T>& a, const Dual<T>& b) {
   return a = a * b;
+}
+
+// sum + c x, in place, component by component.
+template <class T>
+void add_product(Dual<T>& sum, double c, const Dual<T>& x) {
+  T term;
+  dual_detail::scaled(term, c, x.value);
+  dual_detail::sum(sum.value, sum.value, term);
+  sum.directions = std::max(sum.directions, x.directions);
+  for (int k = 0; k < x.directions; ++k) {
+    dual_detail::scaled(term, c, x.derivative[k]);
+    dual_detail::sum(sum.derivative[k], sum.derivative[k], term);
+  }
 }
 
 // sum + c x for a negligible constant c, component by component by the value type's own rule where it has one
@@ -130,7 +201,7 @@ Dual<T> sin(const Dual<T>& a) {
   Dual<T> r(sin(a.value));
   r.directions = a.directions;
   const T c = cos(a.value);
-  for (int k = 0; k < r.directions; ++k) r.derivative[k] = c * a.derivative[k];
+  for (int k = 0; k < r.directions; ++k) dual_detail::product(r.derivative[k], c, a.derivative[k]);
   return r;
 }
 template <class T>
@@ -140,7 +211,11 @@ Dual<T> cos(const Dual<T>& a) {
   Dual<T> r(cos(a.value));
   r.directions = a.directions;
   const T s = sin(a.value);
-  for (int k = 0; k < r.directions; ++k) r.derivative[k] = -(s * a.derivative[k]);
+  T slope;
+  for (int k = 0; k < r.directions; ++k) {
+    dual_detail::product(slope, s, a.derivative[k]);
+    dual_detail::negated(r.derivative[k], slope);
+  }
   return r;
 }
 

@@ -51,7 +51,9 @@ struct Taylor {
   double r = 0.0;                        // remainder radius
   int symbols = 0;
 
-  Taylor() = default;
+  // Not "= default": a defaulted constructor would make value-initialisation (std::vector<Taylor>(n)) zero all the
+  // coefficients, kilobytes per form that are never read beyond `symbols`.
+  Taylor() {}  // NOLINT(modernize-use-equals-default)
   Taylor(double x) : c(x) {}  // NOLINT: an exact constant mixes freely with forms
   Taylor(const Taylor& x) : c(x.c), r(x.r), symbols(x.symbols) { copy_coefficients(x); }
   Taylor& operator=(const Taylor& x) {
@@ -128,75 +130,89 @@ inline double Taylor::lower() const {
   return c - low * kTaylorInflation - 2.0 * kTaylorRoundoff * (std::abs(c) + low);
 }
 
-// Coefficient-wise sum: each coefficient's rounding is at most 2⁻⁵² of its modulus. The form of fewer symbols adds to
-// a prefix of the other's coefficients.
-inline Taylor operator+(const Taylor& x, const Taylor& y) {
-  if (y.is_zero()) return x;
-  if (x.is_zero()) return y;
+// The operations write their result into a given form (`*_into`), so that a form inside a larger value (a dual's
+// derivative) is computed where it lives, not built as a temporary and copied: forms are kilobytes. The operators
+// below return through them.
+
+// z = x + y, coefficient-wise: each coefficient's rounding is at most 2⁻⁵² of its modulus. The form of fewer symbols
+// adds to a prefix of the other's coefficients. z may be x or y (x += y).
+inline void add_into(Taylor& z, const Taylor& x, const Taylor& y) {
+  if (x.is_zero() || y.is_zero()) {  // exact: the other operand
+    z = y.is_zero() ? x : y;
+    return;
+  }
   const Taylor& more = x.symbols >= y.symbols ? x : y;
-  const Taylor& fewer = x.symbols >= y.symbols ? y : x;
-  Taylor z(x.c + y.c);
-  z.symbols = more.symbols;
+  const int fewer = std::min(x.symbols, y.symbols), symbols = more.symbols;
+  const int pairs = pair_count(fewer), all = pair_count(symbols);
+  const double remainders = x.r + y.r;
+  z.c = x.c + y.c;
   // The rounded sums' moduli, Σ|z_i| (only the sums are rounded: the copied coefficients are exact).
   double moduli = std::abs(z.c);
-  for (int k = 0; k < fewer.symbols; ++k) {
+  for (int k = 0; k < fewer; ++k) {
     z.a[k] = x.a[k] + y.a[k];
     moduli += std::abs(z.a[k]);
   }
-  std::copy(more.a.begin() + fewer.symbols, more.a.begin() + more.symbols, z.a.begin() + fewer.symbols);
-  const int pairs = pair_count(fewer.symbols), all = pair_count(more.symbols);
   for (int p = 0; p < pairs; ++p) {
     z.b[p] = x.b[p] + y.b[p];
     moduli += std::abs(z.b[p]);
   }
-  std::copy(more.b.begin() + pairs, more.b.begin() + all, z.b.begin() + pairs);
-  z.r = taylor_detail::up(x.r + y.r + kTaylorRoundoff * taylor_detail::up(moduli));
-  return z;
+  if (&more != &z) {
+    std::copy(more.a.begin() + fewer, more.a.begin() + symbols, z.a.begin() + fewer);
+    std::copy(more.b.begin() + pairs, more.b.begin() + all, z.b.begin() + pairs);
+  }
+  z.symbols = symbols;
+  z.r = taylor_detail::up(remainders + kTaylorRoundoff * taylor_detail::up(moduli));
 }
 
-inline Taylor operator-(const Taylor& x) {
-  Taylor z(-x.c);
+// z = -x, exact. z may be x.
+inline void negate_into(Taylor& z, const Taylor& x) {
+  z.c = -x.c;
   z.symbols = x.symbols;
   for (int k = 0; k < z.symbols; ++k) z.a[k] = -x.a[k];
   for (int p = 0; p < pair_count(z.symbols); ++p) z.b[p] = -x.b[p];
   z.r = x.r;
-  return z;
 }
 
-inline Taylor operator-(const Taylor& x, const Taylor& y) { return x + (-y); }
-
-// Each product rounded within 2⁻⁵² of its modulus, which is at most (1 + 2⁻⁵²) |s| times the coefficient's. Products by
-// 0 and ±1 are exact (a constant rotation's or an axis' entries): taken without arithmetic, 0 x as the exact zero.
-inline Taylor operator*(double s, const Taylor& x) {
-  if (x.is_zero() || s == 1.0) return x;
-  if (s == 0.0) return Taylor(0.0);
-  if (s == -1.0) return -x;
-  Taylor z(s * x.c);
-  z.symbols = x.symbols;
+// z = s x: each product rounded within 2⁻⁵² of its modulus, which is at most (1 + 2⁻⁵²) |s| times the coefficient's.
+// Products by 0 and ±1 are exact (a constant rotation's or an axis' entries): taken without arithmetic, 0 x as the
+// exact zero. z may be x.
+inline void scale_into(Taylor& z, double s, const Taylor& x) {
+  if (x.is_zero() || s == 1.0) {
+    z = x;
+    return;
+  }
+  if (s == 0.0) {
+    z = Taylor(0.0);
+    return;
+  }
+  if (s == -1.0) {
+    negate_into(z, x);
+    return;
+  }
   double moduli = std::abs(x.c);
-  for (int k = 0; k < z.symbols; ++k) {
-    z.a[k] = s * x.a[k];
-    moduli += std::abs(x.a[k]);
-  }
-  for (int p = 0; p < pair_count(z.symbols); ++p) {
-    z.b[p] = s * x.b[p];
-    moduli += std::abs(x.b[p]);
-  }
+  for (int k = 0; k < x.symbols; ++k) moduli += std::abs(x.a[k]);
+  for (int p = 0; p < pair_count(x.symbols); ++p) moduli += std::abs(x.b[p]);
   const double as = std::abs(s);
   z.r = taylor_detail::up(as * x.r + kTaylorRoundoff * taylor_detail::up(as * taylor_detail::up(moduli) * (1.0 + kTaylorRoundoff)));
-  return z;
+  z.c = s * x.c;
+  z.symbols = x.symbols;
+  for (int k = 0; k < z.symbols; ++k) z.a[k] = s * x.a[k];
+  for (int p = 0; p < pair_count(z.symbols); ++p) z.b[p] = s * x.b[p];
 }
 
-// (xc + xl + xq + xe)(yc + yl + yq + ye): the centre, the linear terms xc yl + yc xl, the quadratic terms
+// z = x y: (xc + xl + xq + xe)(yc + yl + yq + ye): the centre, the linear terms xc yl + yc xl, the quadratic terms
 // xc yq + yc xq + xl yl exactly; the cubic and quartic terms xl yq + xq yl + xq yq, bounded by the products of the
 // coefficient sums (|ε| <= 1), and every product with an error term bounded by the factors' ranges.
 // Rounding: every coefficient is a sum of at most four products of one term of x and one of y, each such product
 // appearing in one coefficient only: the rounding of them all is within 4.01 · 2⁻⁵² · (|xc| + X1 + X2)(|yc| + Y1 + Y2).
-inline Taylor operator*(const Taylor& x, const Taylor& y) {
-  if (x.is_zero()) return x;
-  if (y.is_zero()) return y;
+// z is neither x nor y (its coefficients are written while theirs are read).
+inline void multiply_into(Taylor& z, const Taylor& x, const Taylor& y) {
+  if (x.is_zero() || y.is_zero()) {  // the exact zero
+    z = Taylor(0.0);
+    return;
+  }
   const double X1 = x.linear_size(), X2 = x.quadratic_size(), Y1 = y.linear_size(), Y2 = y.quadratic_size();
-  Taylor z(x.c * y.c);
+  z.c = x.c * y.c;
   z.symbols = std::max(x.symbols, y.symbols);
   // Both operands' first-order coefficients over the product's symbols (zero beyond their own).
   std::array<double, kTaylorSymbols> xa, ya;
@@ -215,9 +231,29 @@ inline Taylor operator*(const Taylor& x, const Taylor& y) {
   const double xt = std::abs(x.c) + X1 + X2, yt = std::abs(y.c) + Y1 + Y2;
   z.r = taylor_detail::up(X1 * Y2 + X2 * Y1 + X2 * Y2 + xt * y.r + yt * x.r + x.r * y.r +
                           4.01 * kTaylorRoundoff * xt * yt);
-  return z;
 }
 
+inline Taylor operator+(const Taylor& x, const Taylor& y) {
+  Taylor z;
+  add_into(z, x, y);
+  return z;
+}
+inline Taylor operator-(const Taylor& x) {
+  Taylor z;
+  negate_into(z, x);
+  return z;
+}
+inline Taylor operator-(const Taylor& x, const Taylor& y) { return x + (-y); }
+inline Taylor operator*(double s, const Taylor& x) {
+  Taylor z;
+  scale_into(z, s, x);
+  return z;
+}
+inline Taylor operator*(const Taylor& x, const Taylor& y) {
+  Taylor z;
+  multiply_into(z, x, y);
+  return z;
+}
 inline Taylor operator*(const Taylor& x, double s) { return s * x; }
 // sum + s x for a coefficient s negligible against those it is combined with (a placement's 1e-16 entries,
 // model/chain_dynamics.hpp): |s x| <= |s| (|x.c| + radius) joins the remainder, without the product and the sum.
@@ -225,11 +261,20 @@ inline void add_small_product(Taylor& sum, double s, const Taylor& x) {
   if (x.is_zero() || s == 0.0) return;
   sum.r = taylor_detail::up(sum.r + std::abs(s) * taylor_detail::up(std::abs(x.c) + x.radius()));
 }
+// sum + s x, computed in place (a combination's terms, model/chain_dynamics.hpp).
+inline void add_product(Taylor& sum, double s, const Taylor& x) {
+  Taylor term;
+  scale_into(term, s, x);
+  add_into(sum, sum, term);
+}
 inline Taylor operator+(double s, const Taylor& x) { return Taylor(s) + x; }
 inline Taylor operator+(const Taylor& x, double s) { return x + Taylor(s); }
 inline Taylor operator-(double s, const Taylor& x) { return Taylor(s) - x; }
 inline Taylor operator-(const Taylor& x, double s) { return x - Taylor(s); }
-inline Taylor& operator+=(Taylor& x, const Taylor& y) { return x = x + y; }
+inline Taylor& operator+=(Taylor& x, const Taylor& y) {
+  add_into(x, x, y);
+  return x;
+}
 inline Taylor& operator-=(Taylor& x, const Taylor& y) { return x = x - y; }
 inline Taylor& operator*=(Taylor& x, const Taylor& y) { return x = x * y; }
 
