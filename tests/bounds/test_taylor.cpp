@@ -139,7 +139,7 @@ TEST(TaylorForms, ProductsByExactAndNegligibleConstants) {
 
 // The operations that write into a given form (a dual's derivatives are computed where they live) give the operators'
 // results to the bit when the form written is one of the operands: x += y with x of fewer symbols than y and of more,
-// y = x + y, x = s x and x = -x. A dual's sum, difference, product and sum of a multiple are, derivative by
+// y = x + y, y -= x, x = s x and x = -x. A dual's sum, difference, product and sum of a multiple are, derivative by
 // derivative, the operators' on its components (the product rule).
 TEST(TaylorForms, InPlaceOperationsAliasTheirOperands) {
   using obsgain::Taylor;
@@ -153,6 +153,9 @@ TEST(TaylorForms, InPlaceOperationsAliasTheirOperands) {
     obsgain::add_into(into_second, first, into_second);
     expect_same(into_second, first + second);
   }
+  Taylor reduced = y;
+  reduced -= x;
+  expect_same(reduced, y + (-x));
   Taylor scaled = x;
   obsgain::scale_into(scaled, 2.5, scaled);
   expect_same(scaled, 2.5 * x);

@@ -40,7 +40,7 @@ struct Dual {
 
 namespace dual_detail {
 
-// z = x + y, z = s x, z = x y: written in place where the value type can (Taylor forms, numerics/taylor.hpp, whose
+// z = x + y, -x, x - y, s x, x y: written in place where the value type can (Taylor forms, numerics/taylor.hpp, whose
 // values are kilobytes: a temporary and its copy per derivative would cost as much as the arithmetic), else assigned.
 template <class T>
 void sum(T& z, const T& x, const T& y) {
@@ -58,13 +58,10 @@ void negated(T& z, const T& x) {
 }
 template <class T>
 void difference(T& z, const T& x, const T& y) {
-  if constexpr (requires { negate_into(z, y); }) {
-    T minus_y;
-    negate_into(minus_y, y);
-    add_into(z, x, minus_y);
-  } else {
+  if constexpr (requires { subtract_into(z, x, y); })
+    subtract_into(z, x, y);
+  else
     z = x - y;
-  }
 }
 template <class T>
 void scaled(T& z, double s, const T& x) {

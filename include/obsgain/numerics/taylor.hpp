@@ -173,6 +173,13 @@ inline void negate_into(Taylor& z, const Taylor& x) {
   z.r = x.r;
 }
 
+// z = x - y, as x + (-y). z may be x (x -= y), not y.
+inline void subtract_into(Taylor& z, const Taylor& x, const Taylor& y) {
+  Taylor minus_y;
+  negate_into(minus_y, y);
+  add_into(z, x, minus_y);
+}
+
 // z = s x: each product rounded within 2⁻⁵² of its modulus, which is at most (1 + 2⁻⁵²) |s| times the coefficient's.
 // Products by 0 and ±1 are exact (a constant rotation's or an axis' entries): taken without arithmetic, 0 x as the
 // exact zero. z may be x.
@@ -243,7 +250,11 @@ inline Taylor operator-(const Taylor& x) {
   negate_into(z, x);
   return z;
 }
-inline Taylor operator-(const Taylor& x, const Taylor& y) { return x + (-y); }
+inline Taylor operator-(const Taylor& x, const Taylor& y) {
+  Taylor z;
+  subtract_into(z, x, y);
+  return z;
+}
 inline Taylor operator*(double s, const Taylor& x) {
   Taylor z;
   scale_into(z, s, x);
@@ -275,7 +286,10 @@ inline Taylor& operator+=(Taylor& x, const Taylor& y) {
   add_into(x, x, y);
   return x;
 }
-inline Taylor& operator-=(Taylor& x, const Taylor& y) { return x = x - y; }
+inline Taylor& operator-=(Taylor& x, const Taylor& y) {
+  subtract_into(x, x, y);
+  return x;
+}
 inline Taylor& operator*=(Taylor& x, const Taylor& y) { return x = x * y; }
 
 namespace taylor_detail {
