@@ -82,6 +82,38 @@ BoxBound lipschitz_by_inertia_floor(const Model& model, double floor, const BoxF
   return bound;
 }
 
+// A value the inertia floor's route cannot go below on this box. Its λ is at most max(λmin(C_M), floor), C_M M's
+// centre (its forms' value at ε = 0): a lower bound proven over the forms is at most their value there. Its
+// bound of ||J(w)|| is Σ_j |w_j| r_j plus, over J's parts P (centre, slopes, curvatures), Σ_P ||Σ_j w_j P_j||_F, at
+// its largest over the velocity vertices `W`: at least the centre's term alone, and at least its mean over the
+// vertices, a Rademacher sum whose mean norm is at least 1/√2 of its root mean square (the Khintchine–Kahane
+// inequality with Latała and Oleszkiewicz's constant), sqrt(Σ_j V_j² ||P_j||_F²). Where this is above a bound already
+// proven, the route could not win and is not taken (docs/theory.md, "M⁻¹ over a box"). A choice of work, not a bound:
+// computed in floating point.
+double inertia_route_at_least(double floor, const BoxForms& d, const std::vector<TaylorMatrix>& J, const Eigen::VectorXd& V,
+                              const Eigen::MatrixXd& W) {
+  Eigen::MatrixXd centre(d.n, d.n);
+  for (int i = 0; i < d.n; ++i)
+    for (int k = 0; k < d.n; ++k) centre(i, k) = 0.5 * (d.M[i * d.n + k].c + d.M[k * d.n + i].c);
+  const double lambda = std::max(Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(centre, Eigen::EigenvaluesOnly).eigenvalues()(0), floor);
+  if (!(lambda > 0.0)) return kInfinity;
+  Eigen::MatrixXd C(d.n * d.n, d.n);
+  double remainders = 0.0;
+  for (int j = 0; j < d.n; ++j) {
+    C.col(j) = J[j].centre.reshaped();
+    remainders += V(j) * J[j].remainder;
+  }
+  const Eigen::MatrixXd gram = C.transpose() * C;
+  const double centres = std::sqrt((gram * W).cwiseProduct(W).colwise().sum().maxCoeff());
+  double means = 0.0;
+  for (int t = 0; t < J[0].parts(); ++t) {
+    double squares = 0.0;
+    for (int j = 0; j < d.n; ++j) squares += V(j) * V(j) * J[j].part(t).squaredNorm();
+    means += std::sqrt(0.5 * squares);
+  }
+  return (remainders + std::max(centres, means)) / lambda;
+}
+
 // Column norms of A D + R term by term (the centre, each symbol's slope, each pair's curvature), with A's column j
 // kept (d_j = 1) or dropped (d_j = 0): for any pattern, the centre's Frobenius norm and the variation
 // Σ ||slope||_F + Σ ||curvature||_F + remainders over the box, without forming A D + R.
@@ -525,8 +557,12 @@ BoxBound BoxBounds::joint_lipschitz(const std::vector<Interval>& box, double low
     weigh_sides(linear_combination(t.A, velocity_bounds_, frobenius_uppers(t.A)), d, bound.split_weight);
     return restored(std::move(bound));
   }
+  // The route of the inertia floor wins on wide boxes only (where M⁻¹'s series is loose): it is taken where the
+  // bound is more than twice the value attained and the route could beat it.
+  const double every_choice_bound = bound.upper;
   double cap = kInfinity;
-  if (bound.upper > 2.0 * lower) {
+  if (bound.upper > 2.0 * lower &&
+      inertia_route_at_least(inertia_floor_, d, J, velocity_bounds_, vertices_) * scaling.stretch < bound.upper) {
     BoxBound by_inertia = by_inertia_floor(d, J);
     bound.work += inertia_route_work;
     if (by_inertia.upper <= lower) return restored({by_inertia.upper, std::move(by_inertia.split_weight), bound.work});
@@ -535,7 +571,7 @@ BoxBound BoxBounds::joint_lipschitz(const std::vector<Interval>& box, double low
   const VelocityChoices choices{velocity_bounds_, frictionless_, costs};
   const double polynomial = full ? similar_choices_upper(t, scaling.columns, d, choices, lower - t.tail, bound.split_weight, bound.work)
                                 : choices_upper(t, d, choices, lower - t.tail, bound.split_weight, bound.work);
-  bound.upper = std::min(cap, polynomial + t.tail);
+  bound.upper = std::min({cap, polynomial + t.tail, every_choice_bound});
   return restored(std::move(bound));
 }
 
