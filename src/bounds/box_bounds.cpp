@@ -54,13 +54,6 @@ void weigh_sides(const TaylorMatrix& X, const BoxForms& d, std::vector<double>& 
   }
 }
 
-// J_j over the box as Taylor matrices.
-std::vector<TaylorMatrix> unit_jacobians(const BoxForms& d) {
-  std::vector<TaylorMatrix> J;
-  for (int j = 0; j < d.n; ++j) J.push_back(taylor_matrix(unit_jacobian(d, j).data(), d.n, d.n, d.symbols));
-  return J;
-}
-
 // A proven lower bound of λmin(M) over the box (the model's inertia floor, bounds/inertia_floor.hpp, where that is
 // higher).
 double inertia_lower(double floor, const BoxForms& d, std::vector<double>* weights) {
@@ -185,6 +178,12 @@ double refine_choices(std::vector<Choice>& choices, double lower, const Refine& 
 }
 
 }  // namespace
+
+std::vector<TaylorMatrix> unit_jacobians(const BoxForms& d) {
+  std::vector<TaylorMatrix> J;
+  for (int j = 0; j < d.n; ++j) J.push_back(taylor_matrix(unit_jacobian(d, j).data(), d.n, d.n, d.symbols));
+  return J;
+}
 
 BoxCosts box_costs(int n, int symbols, bool frictionless) {
   // Seconds on the reference machine, the suite's (two cores): each step timed there on one core, per box, on
@@ -559,7 +558,6 @@ BoxBound BoxBounds::joint_lipschitz(const std::vector<Interval>& box, double low
   }
   // The route of the inertia floor wins on wide boxes only (where M⁻¹'s series is loose): it is taken where the
   // bound is more than twice the value attained and the route could beat it.
-  const double every_choice_bound = bound.upper;
   double cap = kInfinity;
   if (bound.upper > 2.0 * lower &&
       inertia_route_at_least(inertia_floor_, d, J, velocity_bounds_, vertices_) * scaling.stretch < bound.upper) {
@@ -571,7 +569,7 @@ BoxBound BoxBounds::joint_lipschitz(const std::vector<Interval>& box, double low
   const VelocityChoices choices{velocity_bounds_, frictionless_, costs};
   const double polynomial = full ? similar_choices_upper(t, scaling.columns, d, choices, lower - t.tail, bound.split_weight, bound.work)
                                 : choices_upper(t, d, choices, lower - t.tail, bound.split_weight, bound.work);
-  bound.upper = std::min({cap, polynomial + t.tail, every_choice_bound});
+  bound.upper = std::min({cap, polynomial + t.tail, bound.upper});  // bound.upper: the entry moduli's
   return restored(std::move(bound));
 }
 

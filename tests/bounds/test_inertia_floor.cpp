@@ -116,20 +116,10 @@ TEST(InertiaFloor, APublishedUrdfWithoutRotorInertiaGetsFiniteCertifiedBrackets)
 // from the same forms.
 double inertia_route(const obsgain::Model& model, const obsgain::JointSearch& search, const std::vector<obsgain::Interval>& box) {
   const obsgain::BoxForms d = obsgain::box_forms(model, search, box, true);
-  const int n = d.n;
-  std::vector<obsgain::TaylorMatrix> J;
-  for (int j = 0; j < n; ++j) {
-    std::vector<obsgain::Taylor> Jj(static_cast<std::size_t>(n * n));
-    for (int i = 0; i < n; ++i)
-      for (int k = 0; k < n; ++k) Jj[i * n + k] = 2.0 * d.N[(i * n + j) * n + k];
-    J.push_back(obsgain::taylor_matrix(Jj.data(), n, n, d.symbols));
-  }
-  Eigen::MatrixXd W(n, 1 << n);
-  for (int c = 0; c < (1 << n); ++c)
-    for (int j = 0; j < n; ++j) W(j, c) = ((c >> j) & 1) ? model.velocity_bounds(j) : -model.velocity_bounds(j);
-  const double lambda = std::max(obsgain::smallest_eigenvalue_lower(obsgain::taylor_matrix(d.M.data(), n, n, d.symbols)),
+  const double lambda = std::max(obsgain::smallest_eigenvalue_lower(obsgain::taylor_matrix(d.M.data(), d.n, d.n, d.symbols)),
                                  obsgain::inertia_floor(model));
-  return (obsgain::largest_combination_frobenius_upper(J, W) + obsgain::spectral_norm_upper(model.friction)) / lambda;
+  const double J = obsgain::largest_combination_frobenius_upper(obsgain::unit_jacobians(d), obsgain::box_vertices(model.velocity_bounds));
+  return (J + obsgain::spectral_norm_upper(model.friction)) / lambda;
 }
 
 TEST(InertiaFloor, L_jointOverABoxIsNeverAboveTheFloorsRoute) {

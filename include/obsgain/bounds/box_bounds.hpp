@@ -59,6 +59,11 @@ struct PerturbationForms {
   BoxCosts costs;
 };
 
+struct BoxForms;
+// J_j = ∂A/∂v at v = e_j over the box as Taylor matrices, (J_j)_ik = 2 N_i[j][k] from the forms' Christoffel tensors:
+// J(q, w) = Σ_j w_j J_j (docs/theory.md, "The constants").
+std::vector<TaylorMatrix> unit_jacobians(const BoxForms& d);
+
 class BoxBounds {
  public:
   // Keeps references to the model and the search: they must outlive it. `scaling` (non-empty, n x n): joint_lipschitz
