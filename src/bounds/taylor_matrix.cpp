@@ -120,9 +120,26 @@ std::vector<double> frobenius_uppers(const std::vector<TaylorMatrix>& terms) {
   return f;
 }
 
-TaylorMatrix linear_combination(const std::vector<TaylorMatrix>& terms, const Eigen::VectorXd& weights,
-                                const std::vector<double>& frobenius) {
-  TaylorMatrix X;
+namespace {
+
+// Σ_j |w_j| |Δ_j| entry by entry, where every term's entries' remainders are known (empty otherwise): its Frobenius
+// norm bounds the combination's Δ, and is at most Σ_j |w_j| ||Δ_j||_F, less where the terms' remainders sit in
+// different entries (docs/theory.md, "M⁻¹ over a box").
+Eigen::MatrixXd combined_entry_remainders(const std::vector<TaylorMatrix>& terms, const Eigen::VectorXd& weights) {
+  for (const TaylorMatrix& X : terms)
+    if (X.entry_remainder.size() != X.centre.size()) return {};
+  const UpwardRounding upward;  // sums and products of non-negative terms, rounded up
+  Eigen::MatrixXd E = Eigen::MatrixXd::Zero(terms[0].centre.rows(), terms[0].centre.cols());
+  for (std::size_t j = 0; j < terms.size(); ++j) {
+    const double w = std::abs(weights(static_cast<Eigen::Index>(j)));
+    if (w != 0.0) E += w * terms[j].entry_remainder;
+  }
+  return E;
+}
+
+// The coefficients of Σ_j w_j X_j, in X (its remainder not set); returns the bound of the sums' rounding.
+double sum_coefficients(const std::vector<TaylorMatrix>& terms, const Eigen::VectorXd& weights,
+                        const std::vector<double>& term_frobenius, TaylorMatrix& X) {
   X.centre = Eigen::MatrixXd::Zero(terms[0].centre.rows(), terms[0].centre.cols());
   X.slopes.assign(terms[0].slopes.size(), X.centre);
   X.curvatures.assign(terms[0].curvatures.size(), X.centre);
@@ -133,10 +150,26 @@ TaylorMatrix linear_combination(const std::vector<TaylorMatrix>& terms, const Ei
     X.centre += w * terms[j].centre;
     for (std::size_t k = 0; k < X.slopes.size(); ++k) X.slopes[k] += w * terms[j].slopes[k];
     for (std::size_t p = 0; p < X.curvatures.size(); ++p) X.curvatures[p] += w * terms[j].curvatures[p];
-    X.remainder += std::abs(w) * terms[j].remainder;
-    rounding += std::abs(w) * frobenius[j];
+    rounding += std::abs(w) * term_frobenius[j];
   }
-  X.remainder = up(X.remainder + gamma(static_cast<int>(terms.size())) * rounding);
+  return up(gamma(static_cast<int>(terms.size())) * rounding);
+}
+
+// Σ_j |w_j| ||Δ_j||_F, rounded up: the combination's remainder where its terms' entries' remainders are not known.
+double summed_remainders(const std::vector<TaylorMatrix>& terms, const Eigen::VectorXd& weights) {
+  double sum = 0.0;
+  for (std::size_t j = 0; j < terms.size(); ++j) sum += std::abs(weights(static_cast<Eigen::Index>(j))) * terms[j].remainder;
+  return up(sum);
+}
+
+}  // namespace
+
+TaylorMatrix linear_combination(const std::vector<TaylorMatrix>& terms, const Eigen::VectorXd& weights,
+                                const std::vector<double>& term_frobenius) {
+  TaylorMatrix X;
+  const double rounding = sum_coefficients(terms, weights, term_frobenius, X);
+  const Eigen::MatrixXd E = combined_entry_remainders(terms, weights);
+  X.remainder = up((E.size() ? frobenius(E) : summed_remainders(terms, weights)) + rounding);
   return X;
 }
 
@@ -185,24 +218,35 @@ TaylorMatrix linear_combination(const std::vector<TaylorMatrix>& terms, const Ei
       fixed(static_cast<Eigen::Index>(j)) = 0.0;
       symbolic.push_back(j);
     }
-  TaylorMatrix X = linear_combination(terms, fixed, term_frobenius);
-  if (symbolic.empty()) return X;
+  if (symbolic.empty()) return linear_combination(terms, fixed, term_frobenius);
+  TaylorMatrix X;
+  double rounding = sum_coefficients(terms, fixed, term_frobenius, X);
   const int s = X.symbols(), all = s + static_cast<int>(symbolic.size());
   X = with_symbols(X, all);
-  const auto pairs = symbol_pairs(all);
-  double remainder = X.remainder;
+  // Δ and the third-order terms V ω Σ_p H_p ε_p entry by entry where the entries' remainders are known (then
+  // |Σ_p H_p ε_p| <= Σ_p |H_p|), else in norm.
+  Eigen::MatrixXd E = combined_entry_remainders(terms, fixed);
+  double remainder = E.size() ? 0.0 : summed_remainders(terms, fixed);
   for (std::size_t r = 0; r < symbolic.size(); ++r) {
     const TaylorMatrix& T = terms[symbolic[r]];
     const double V = std::abs(weights(static_cast<Eigen::Index>(symbolic[r])));
     const int omega = s + static_cast<int>(r);
     X.slopes[omega] = V * T.centre;
     for (int k = 0; k < s; ++k) X.curvatures[static_cast<std::size_t>(pair_index(k, omega))] = V * T.slopes[k];
-    double third = T.remainder;  // V ω (Σ H_p ε_p + Δ): third order, in norm
-    for (const Eigen::MatrixXd& H : T.curvatures) third += frobenius(H);
+    if (E.size()) {
+      const UpwardRounding upward;  // sums and products of non-negative terms
+      Eigen::MatrixXd third = T.entry_remainder;
+      for (const Eigen::MatrixXd& H : T.curvatures) third += H.cwiseAbs();
+      E += V * third;
+    } else {
+      double third = T.remainder;  // V ω (Σ H_p ε_p + Δ): third order, in norm
+      for (const Eigen::MatrixXd& H : T.curvatures) third += frobenius(H);
+      remainder = up(remainder + V * third);
+    }
     // The products V x rounded within 2⁻⁵² of their moduli: at most 2⁻⁵² V ||X_j||_F over the centre and slopes.
-    remainder += V * third + kTaylorRoundoff * V * term_frobenius[symbolic[r]];
+    rounding += kTaylorRoundoff * V * term_frobenius[symbolic[r]];
   }
-  X.remainder = up(remainder);
+  X.remainder = up((E.size() ? frobenius(E) : remainder) + rounding);
   return X;
 }
 
@@ -267,8 +311,10 @@ TaylorMatrix pattern_envelope(const TaylorMatrix& X, const TaylorMatrix& Y, doub
   out.centre = stacked(X.centre, Y.centre);
   for (std::size_t k = 0; k < X.slopes.size(); ++k) out.slopes.push_back(stacked(X.slopes[k], Y.slopes[k]));
   for (std::size_t p = 0; p < X.curvatures.size(); ++p) out.curvatures.push_back(stacked(X.curvatures[p], Y.curvatures[p]));
-  // The remainders [ΔX + ΔY, ΔY] in norm, and each entry x + y rounded within 2⁻⁵² of its modulus.
-  out.remainder = up(X.remainder + 2.0 * Y.remainder + kTaylorRoundoff * frobenius);
+  // The remainders [ΔX + ΔY, ΔY] in norm (||[A; B]||² <= ||A||² + ||B||²), and each entry x + y rounded within 2⁻⁵² of
+  // its modulus.
+  const double top = up(X.remainder + Y.remainder);
+  out.remainder = up(up(std::sqrt(up(top * top + up(Y.remainder * Y.remainder)))) + kTaylorRoundoff * frobenius);
   return out;
 }
 
@@ -373,8 +419,8 @@ Eigen::MatrixXd singular_basis(const Eigen::MatrixXd& C, double& delta) {
 }  // namespace
 
 // λmax of Ĝ(ε) from the top direction (the centre's leading right singular vector): a from the signed second-order
-// expansion of Ĝ_00, b and c from the entry bounds (c by Gershgorin). The excess is b²/(a - c), the cross terms of
-// the second-order part and the third-order terms.
+// expansion of Ĝ_00, b and c from the entry bounds (c by perron_upper: weighted Gershgorin). The excess is b²/(a - c),
+// the cross terms of the second-order part and the third-order terms.
 double norm_upper(const TaylorMatrix& X, double floor) {
   const double cheap = X.frobenius_upper();
   if (cheap <= floor || !std::isfinite(cheap)) return cheap;
@@ -387,14 +433,9 @@ double norm_upper(const TaylorMatrix& X, double floor) {
   const auto n = bound.cols();
   const UpwardRounding upward;
   const Interval a(std::min(bound(0, 0), top_gram_upper(t, s(0), h(0))));
-  Interval b2(0.0), c(0.0);
-  for (Eigen::Index i = 1; i < n; ++i) {
-    b2 += boost::numeric::square(Interval(bound(i, 0)));
-    Interval row(bound(i, i));
-    for (Eigen::Index j = 1; j < n; ++j)
-      if (j != i) row += Interval(bound(i, j));
-    c = Interval(std::max(c.upper(), row.upper()));
-  }
+  Interval b2(0.0);
+  for (Eigen::Index i = 1; i < n; ++i) b2 += boost::numeric::square(Interval(bound(i, 0)));
+  const Interval c(perron_upper(bound.bottomRightCorner(n - 1, n - 1)));
   using boost::numeric::sqrt;
   const Interval sigma = (sqrt(two_by_two_upper(a, b2, c)) + Interval(t.rho)) / sqrt(Interval(1.0) - Interval(delta)) +
                          Interval(X.remainder);

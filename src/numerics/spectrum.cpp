@@ -17,6 +17,30 @@ SymmetricEigen symmetric_eigen(const Eigen::MatrixXd& S) {
   return {eigen.eigenvalues(), eigen.eigenvectors()};
 }
 
+double perron_upper(const Eigen::MatrixXd& B) {
+  // Weights from a few power iterations: each only sharpens them, and the bound holds for any positive x. Where B's
+  // spectrum is symmetric (a bipartite pattern) the iterates alternate; the sum of the last two does not.
+  constexpr int kSteps = 8;
+  if (B.size() == 0) return 0.0;
+  Eigen::VectorXd x = Eigen::VectorXd::Ones(B.rows()), previous = x;
+  for (int step = 0; step < kSteps; ++step) {
+    const Eigen::VectorXd y = B * x;
+    const double top = y.maxCoeff();
+    if (!(top > 0.0) || !std::isfinite(top)) break;
+    previous = x;
+    x = (y / top).array() + 1e-6;  // positive: a zero weight would divide by 0
+  }
+  const UpwardRounding upward;
+  const auto ratio = [&](const Eigen::VectorXd& w) {
+    const Eigen::VectorXd y = B * w;
+    double r = 0.0;
+    for (Eigen::Index i = 0; i < B.rows(); ++i) r = std::max(r, y(i) / w(i));
+    return r;
+  };
+  const double rows = B.rowwise().sum().maxCoeff(), best = std::min(ratio(x), ratio(x + previous));
+  return std::isfinite(best) ? std::min(best, rows) : rows;
+}
+
 double spectral_norm(const Eigen::MatrixXd& A) {
   return std::sqrt(symmetric_eigenvalues(A * A.transpose()).maxCoeff());
 }

@@ -115,6 +115,34 @@ TEST(Spectrum, SpectralNormUpperHoldsAndIsTight) {
   EXPECT_EQ(obsgain::spectral_norm_upper(Eigen::MatrixXd::Zero(4, 4)), 0.0);
 }
 
+// The Perron root's bound (weighted Gershgorin): a path 0 - 1 - 10, whose spectral radius is √101 = 10.05 and whose
+// row sums reach 11; a matrix with a zero row; an empty one. On random non-negative B, never below ρ(B) and never above
+// the largest row sum, and never below λmax of a symmetric G with |G| <= B (random signs, entries scaled down).
+TEST(Spectrum, PerronRootBoundHoldsAndBeatsTheRowSums) {
+  Eigen::Matrix3d path;
+  path << 0, 1, 0, 1, 0, 10, 0, 10, 0;
+  EXPECT_GE(obsgain::perron_upper(path), std::sqrt(101.0));
+  EXPECT_LE(obsgain::perron_upper(path), std::sqrt(101.0) * (1.0 + 1e-3));
+  Eigen::Matrix3d zero_row;
+  zero_row << 2, 1, 0, 1, 2, 0, 0, 0, 0;
+  EXPECT_GE(obsgain::perron_upper(zero_row), 3.0);
+  EXPECT_LE(obsgain::perron_upper(zero_row), 3.0 * (1.0 + 1e-12));
+  EXPECT_EQ(obsgain::perron_upper(Eigen::MatrixXd(0, 0)), 0.0);
+  std::srand(9);
+  for (int trial = 0; trial < 40; ++trial) {
+    const int n = 1 + trial % 8;
+    const Eigen::MatrixXd A = Eigen::MatrixXd::Random(n, n).cwiseAbs();
+    const Eigen::MatrixXd B = A + A.transpose();
+    const double bound = obsgain::perron_upper(B);
+    EXPECT_GE(bound, obsgain::symmetric_eigenvalues(B).maxCoeff() * (1.0 - 1e-14)) << n;
+    EXPECT_LE(bound, B.rowwise().sum().maxCoeff() * (1.0 + 1e-14)) << n;
+    const Eigen::MatrixXd signs = Eigen::MatrixXd::Random(n, n);
+    Eigen::MatrixXd G = B.cwiseProduct(signs.cwiseSign());
+    G = (G + G.transpose()).eval() / 2.0;
+    EXPECT_LE(obsgain::symmetric_eigenvalues(G).maxCoeff(), bound) << n;
+  }
+}
+
 TEST(SimilarityScaling, ReachesTheAnalyticMinimumWhereNoDiagonalScalingHelps) {
   const double a = 4.0, kappa = 30.0;
   const Eigen::Vector2d u(std::sqrt(0.5), std::sqrt(0.5)), v(-std::sqrt(0.5), std::sqrt(0.5));

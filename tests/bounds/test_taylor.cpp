@@ -224,6 +224,8 @@ TEST(TaylorMatrices, CombinationBoundsFromGramMatricesHoldAndAreTight) {
       }
       if (j == 0) first = entries;
       terms.push_back(obsgain::taylor_matrix(entries.data(), n, n, symbols));
+      // The route adds the terms' remainders in norm; so does a combination of terms whose entries' are not known.
+      terms.back().entry_remainder.resize(0, 0);
     }
     Eigen::MatrixXd W(n, 5);
     for (Eigen::Index c = 0; c < W.cols(); ++c)
@@ -362,14 +364,22 @@ TEST(TaylorMatrices, PatternEnvelopeBoundsEverySaturationPattern) {
 }
 
 // Weights carried as symbols: Σ_j w_j X_j(ε) for every w_j in [-V_j, V_j] of the free ones (and the fixed ones at
-// their values) lies within the combination's polynomial part at (ε, w/V) plus its remainder.
+// their values) lies within the combination's polynomial part at (ε, w/V) plus its remainder. Every other trial the
+// terms' remainders are known entry by entry (as the forms' products give them), and each term's Δ_j is then any
+// matrix within them; otherwise Δ_j is a multiple of I within the norm.
 TEST(TaylorMatrices, SymbolicWeightsCoverEveryWeightInTheirBox) {
   std::mt19937_64 rng(13);
   std::uniform_real_distribution<double> unit(-1.0, 1.0);
   for (int trial = 0; trial < 40; ++trial) {
     const int n = 2 + trial % 5, terms = 3 + trial % 4, symbols = 2 + trial % 3;
+    const bool by_entry = trial % 2 == 1;
     std::vector<obsgain::TaylorMatrix> X;
-    for (int j = 0; j < terms; ++j) X.push_back(random_taylor_matrix(n, n, symbols, 1.0, rng));
+    for (int j = 0; j < terms; ++j) {
+      X.push_back(random_taylor_matrix(n, n, symbols, 1.0, rng));
+      if (!by_entry) continue;
+      X.back().entry_remainder = Eigen::MatrixXd::NullaryExpr(n, n, [&] { return 0.01 * (1.0 + unit(rng)); });
+      X.back().remainder = X.back().entry_remainder.norm() * (1.0 + 1e-12);
+    }
     Eigen::VectorXd V(terms);
     std::vector<bool> free(terms);
     for (int j = 0; j < terms; ++j) {
@@ -385,11 +395,43 @@ TEST(TaylorMatrices, SymbolicWeightsCoverEveryWeightInTheirBox) {
         const double omega = free[j] ? unit(rng) : 1.0;
         if (free[j]) e[free_index++] = omega;
         const std::vector<double> own(e.begin(), e.begin() + symbols);
-        exact += omega * V(j) * (member(X[j], own) + 0.01 * unit(rng) * Eigen::MatrixXd::Identity(n, n));
+        const Eigen::MatrixXd delta =
+            by_entry ? Eigen::MatrixXd(X[j].entry_remainder.unaryExpr([&](double r) { return r * (unit(rng) < 0.0 ? -1.0 : 1.0); }))
+                     : Eigen::MatrixXd(0.01 * unit(rng) * Eigen::MatrixXd::Identity(n, n));
+        exact += omega * V(j) * (member(X[j], own) + delta);
       }
       EXPECT_LE(obsgain::spectral_norm(exact - member(Y, e)), Y.remainder) << trial;
     }
   }
+}
+
+// A combination's remainder where the terms' remainders (and, for weights carried as symbols, their curvatures, third
+// order with the weight's symbol) sit in different entries: the Frobenius norm of their entrywise sum, not the sum of
+// their norms (docs/theory.md, "M⁻¹ over a box"). Two 2 x 2 terms over one symbol: X_0 with curvature 0.3 and
+// remainder 0.1 in entry (0, 0), X_1 with 0.4 and 0.2 in entry (1, 1).
+TEST(TaylorMatrices, CombinationRemaindersAddEntryByEntry) {
+  std::vector<obsgain::TaylorMatrix> X(2);
+  for (int j = 0; j < 2; ++j) {
+    X[j].centre = Eigen::MatrixXd::Zero(2, 2);
+    X[j].slopes = {Eigen::MatrixXd::Zero(2, 2)};
+    X[j].curvatures = {Eigen::MatrixXd::Zero(2, 2)};
+    X[j].curvatures[0](j, j) = j == 0 ? 0.3 : 0.4;
+    X[j].entry_remainder = Eigen::MatrixXd::Zero(2, 2);
+    X[j].entry_remainder(j, j) = j == 0 ? 0.1 : 0.2;
+    X[j].remainder = X[j].entry_remainder(j, j);
+  }
+  const std::vector<double> frobenius = obsgain::frobenius_uppers(X);
+  // Fixed weights 2 and -3: |Δ| <= diag(0.2, 0.6), ||·||_F = √0.40 (the norms' sum: 0.8).
+  const double fixed = obsgain::linear_combination(X, Eigen::Vector2d(2.0, -3.0), frobenius).remainder;
+  EXPECT_NEAR(fixed, std::sqrt(0.40), 1e-12);
+  // Both weights symbols, V = (2, 3): V_j ω_j (H_j ε² + Δ_j) is within diag(2 (0.3 + 0.1), 3 (0.4 + 0.2)) entrywise,
+  // ||·||_F = √3.88 (the norms' sum: 2.6).
+  const double symbolic = obsgain::linear_combination(X, Eigen::Vector2d(2.0, 3.0), {true, true}, frobenius).remainder;
+  EXPECT_NEAR(symbolic, std::sqrt(3.88), 1e-12);
+  // Where one term's entries are not known, the norms add.
+  X[1].entry_remainder.resize(0, 0);
+  EXPECT_NEAR(obsgain::linear_combination(X, Eigen::Vector2d(2.0, -3.0), frobenius).remainder, 0.8, 1e-12);
+  EXPECT_NEAR(obsgain::linear_combination(X, Eigen::Vector2d(2.0, 3.0), {true, true}, frobenius).remainder, 2.6, 1e-12);
 }
 
 // The library's forms of M and the Christoffel tensors over the box centre ± radius of the searched joints, the other

@@ -46,7 +46,8 @@ struct TaylorMatrix {
 TaylorMatrix taylor_matrix(const Taylor* entries, int rows, int cols, int symbols);
 
 // Σ_j weight_j X_j (each X_j of one size), with the rounding of the sums in the remainder; `frobenius`: the terms'
-// frobenius_upper(), computed once for the many combinations of the same terms.
+// frobenius_upper(), computed once for the many combinations of the same terms. Where every term's entry_remainder is
+// known the remainder is ||Σ_j |w_j| |Δ_j| ||_F, entry by entry, else Σ_j |w_j| ||Δ_j||.
 TaylorMatrix linear_combination(const std::vector<TaylorMatrix>& terms, const Eigen::VectorXd& weights,
                                 const std::vector<double>& frobenius);
 // An upper bound of max over W's columns w of linear_combination(terms, w, ·).frobenius_upper(), without forming the
@@ -55,8 +56,8 @@ TaylorMatrix linear_combination(const std::vector<TaylorMatrix>& terms, const Ei
 double largest_combination_frobenius_upper(const std::vector<TaylorMatrix>& terms, const Eigen::MatrixXd& W);
 // The same with some weights free: Σ_j w_j X_j over the fixed ones, plus Σ_j V_j ω_j X_j over the free ones
 // (`free[j]`, V_j = weights(j)), each ω_j ∈ [-1, 1] a symbol of its own after X's: its term's centre is a slope, its
-// slopes are curvatures with ω_j, and its curvatures (third order) join the remainder. Every weight in [-V_j, V_j] at
-// once, for the price of a few symbols.
+// slopes are curvatures with ω_j, and its curvatures (third order) join the remainder (entry by entry with the
+// remainders, where those are known). Every weight in [-V_j, V_j] at once, for the price of a few symbols.
 TaylorMatrix linear_combination(const std::vector<TaylorMatrix>& terms, const Eigen::VectorXd& weights,
                                 const std::vector<bool>& free, const std::vector<double>& frobenius);
 // X over `symbols` symbols, the ones beyond its own not entering it.

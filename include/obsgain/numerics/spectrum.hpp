@@ -19,6 +19,12 @@ struct SymmetricEigen {
   Eigen::MatrixXd vectors;  // orthonormal columns, in the values' order
 };
 SymmetricEigen symmetric_eigen(const Eigen::MatrixXd& S);
+// An upper bound of the spectral radius of a non-negative matrix B, so of λmax of every symmetric G with |G| <= B
+// entry by entry (ρ(G) <= ρ(|G|) <= ρ(B), Perron–Frobenius): max_i (B x)_i / x_i for any positive x (Collatz–Wielandt;
+// Gershgorin's bound of D⁻¹ B D, D = diag(x)), x from a few power iterations in floating point and the ratios formed
+// rounding upward (B x of non-negative terms is then at least its exact value). Never above the largest row sum
+// (x = 1, Gershgorin's bound of B).
+double perron_upper(const Eigen::MatrixXd& B);
 // ||A||₂ in floating point, as Eigen's operatorNorm computes it (an estimate: spectral_norm_upper bounds it).
 double spectral_norm(const Eigen::MatrixXd& A);
 // G = U T Uᵀ, T quasi upper triangular, U orthogonal.
