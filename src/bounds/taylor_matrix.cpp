@@ -124,7 +124,7 @@ namespace {
 
 // Σ_j |w_j| |Δ_j| entry by entry, where every term's entries' remainders are known (empty otherwise): its Frobenius
 // norm bounds the combination's Δ, and is at most Σ_j |w_j| ||Δ_j||_F, less where the terms' remainders sit in
-// different entries (docs/theory.md, "M⁻¹ over a box").
+// different entries (docs/theory.md, "Remainders entry by entry in the combinations").
 Eigen::MatrixXd combined_entry_remainders(const std::vector<TaylorMatrix>& terms, const Eigen::VectorXd& weights) {
   for (const TaylorMatrix& X : terms)
     if (X.entry_remainder.size() != X.centre.size()) return {};
