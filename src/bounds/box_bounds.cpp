@@ -189,10 +189,11 @@ BoxCosts box_costs(int n, int symbols, bool frictionless) {
   // Seconds on the reference machine, the suite's (two cores): each step timed there on one core, per box, on
   // examples/arm6.urdf, arm7.urdf, iiwa14.urdf and the UR5 with armature, and halved for the two cores (the forms and
   // the inertia floor's route refitted in the seventh round of issue 18, after they became faster, the forms and the
-  // products scaled in the eighth by how much faster they then became against the seventh's code on one machine; the
-  // inertia step is an older fit's). The count runs a quarter ahead of that, so that a default design, whose numeric search comes
-  // first, ends within its budget on every arm measured (docs/theory.md, "The budget"). `terms`: a Taylor matrix's
-  // n x n parts (centre, slopes, curvatures).
+  // products scaled in the eighth by how much faster they then became against the seventh's code on one machine, the
+  // vertex step in the eleventh by 0.85 (its time against the tenth's code at the same boxes on one machine: 0.79-0.84
+  // on arm6, arm7 and the iiwa, 0.86-0.90 on the Panda); the inertia step is an older fit's). The count runs a quarter
+  // ahead of that, so that a default design, whose numeric search comes first, ends within its budget on every arm
+  // measured (docs/theory.md, "The budget"). `terms`: a Taylor matrix's n x n parts (centre, slopes, curvatures).
   constexpr double ahead = 1.25;
   const double n1 = n, n2 = n1 * n1, n3 = n2 * n1, s = symbols, terms = 1.0 + s + pair_count(symbols);
   const double vertices = std::ldexp(1.0, frictionless ? n - 1 : n);
@@ -201,7 +202,7 @@ BoxCosts box_costs(int n, int symbols, bool frictionless) {
           .forms = ahead * (12.4e-6 + 0.76e-6 * n3 * (1.0 + 0.047 * s)),
           .products = products,
           .failed_inverse = 0.3 * products,
-          .vertex = ahead * (0.39e-6 + 2.7e-9 * n2 * terms),
+          .vertex = ahead * (0.33e-6 + 2.3e-9 * n2 * terms),
           .refinement = ahead * (0.86e-6 + 3.45e-9 * n2 * terms),
           .choice = ahead * (0.026e-6 + 2.45e-9 * n1 * terms),
           .point = ahead * (1.9e-6 + 2.8e-9 * vertices * n3),
@@ -425,12 +426,12 @@ std::vector<Eigen::VectorXd> enumerated_vertices(const Eigen::VectorXd& V, const
 double choices_upper(const LipschitzTerms& t, const BoxForms& d, const VelocityChoices& v, double lower,
                      std::vector<double>& weights, double& work) {
   const std::vector<double> A_frobenius = frobenius_uppers(t.A);
-  const std::vector<bool> free = symbolic_velocities(t.A, A_frobenius, v.velocity_bounds);
-  const std::vector<Eigen::VectorXd> ws = enumerated_vertices(v.velocity_bounds, free, v.frictionless);
+  const SymbolicWeights free = symbolic_weights(t.A, symbolic_velocities(t.A, A_frobenius, v.velocity_bounds));
+  const std::vector<Eigen::VectorXd> ws = enumerated_vertices(v.velocity_bounds, free.free, v.frictionless);
   std::vector<VertexEnvelope> vertices;
   std::vector<Choice> choices;
   // R over the vertices' symbols: the box's and one per velocity component carried as a symbol.
-  const TaylorMatrix R = with_symbols(t.R, t.R.symbols() + static_cast<int>(std::count(free.begin(), free.end(), true)));
+  const TaylorMatrix R = with_symbols(t.R, t.R.symbols() + static_cast<int>(free.terms.size()));
   const double R_frobenius = R.frobenius_upper();
   for (const Eigen::VectorXd& w : ws) {
     VertexEnvelope e;

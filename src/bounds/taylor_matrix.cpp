@@ -137,19 +137,21 @@ Eigen::MatrixXd combined_entry_remainders(const std::vector<TaylorMatrix>& terms
   return E;
 }
 
-// The coefficients of Σ_j w_j X_j, in X (its remainder not set); returns the bound of the sums' rounding.
+// The coefficients of Σ_j w_j X_j over `symbols` symbols (at least the terms', the others not entering it), in X (its
+// remainder not set); returns the bound of the sums' rounding.
 double sum_coefficients(const std::vector<TaylorMatrix>& terms, const Eigen::VectorXd& weights,
-                        const std::vector<double>& term_frobenius, TaylorMatrix& X) {
+                        const std::vector<double>& term_frobenius, int symbols, TaylorMatrix& X) {
   X.centre = Eigen::MatrixXd::Zero(terms[0].centre.rows(), terms[0].centre.cols());
-  X.slopes.assign(terms[0].slopes.size(), X.centre);
-  X.curvatures.assign(terms[0].curvatures.size(), X.centre);
+  X.slopes.assign(static_cast<std::size_t>(symbols), X.centre);
+  X.curvatures.assign(static_cast<std::size_t>(pair_count(symbols)), X.centre);
   double rounding = 0.0;  // Σ_j |w_j| ||X_j||_F, times γ: the rounding of every entry's sum
   for (std::size_t j = 0; j < terms.size(); ++j) {
     const double w = weights(static_cast<Eigen::Index>(j));
     if (w == 0.0) continue;
     X.centre += w * terms[j].centre;
-    for (std::size_t k = 0; k < X.slopes.size(); ++k) X.slopes[k] += w * terms[j].slopes[k];
-    for (std::size_t p = 0; p < X.curvatures.size(); ++p) X.curvatures[p] += w * terms[j].curvatures[p];
+    // The terms' symbols come first, and so do their pairs in symbol_pairs's order.
+    for (std::size_t k = 0; k < terms[j].slopes.size(); ++k) X.slopes[k] += w * terms[j].slopes[k];
+    for (std::size_t p = 0; p < terms[j].curvatures.size(); ++p) X.curvatures[p] += w * terms[j].curvatures[p];
     rounding += std::abs(w) * term_frobenius[j];
   }
   return up(gamma(static_cast<int>(terms.size())) * rounding);
@@ -167,7 +169,7 @@ double summed_remainders(const std::vector<TaylorMatrix>& terms, const Eigen::Ve
 TaylorMatrix linear_combination(const std::vector<TaylorMatrix>& terms, const Eigen::VectorXd& weights,
                                 const std::vector<double>& term_frobenius) {
   TaylorMatrix X;
-  const double rounding = sum_coefficients(terms, weights, term_frobenius, X);
+  const double rounding = sum_coefficients(terms, weights, term_frobenius, terms[0].symbols(), X);
   const Eigen::MatrixXd E = combined_entry_remainders(terms, weights);
   X.remainder = up((E.size() ? frobenius(E) : summed_remainders(terms, weights)) + rounding);
   return X;
@@ -209,42 +211,53 @@ double largest_combination_frobenius_upper(const std::vector<TaylorMatrix>& term
   return up(bound.maxCoeff());
 }
 
-TaylorMatrix linear_combination(const std::vector<TaylorMatrix>& terms, const Eigen::VectorXd& weights,
-                                const std::vector<bool>& free, const std::vector<double>& term_frobenius) {
-  Eigen::VectorXd fixed = weights;
-  std::vector<std::size_t> symbolic;
-  for (std::size_t j = 0; j < terms.size(); ++j)
-    if (free[j]) {
-      fixed(static_cast<Eigen::Index>(j)) = 0.0;
-      symbolic.push_back(j);
+SymbolicWeights symbolic_weights(const std::vector<TaylorMatrix>& terms, const std::vector<bool>& free) {
+  SymbolicWeights s{free, {}, {}, {}};
+  bool by_entry = true;
+  for (const TaylorMatrix& X : terms) by_entry = by_entry && X.entry_remainder.size() == X.centre.size();
+  const UpwardRounding upward;  // sums of non-negative terms
+  for (std::size_t j = 0; j < terms.size(); ++j) {
+    if (!free[j]) continue;
+    const TaylorMatrix& T = terms[j];
+    s.terms.push_back(j);
+    if (by_entry) {
+      Eigen::MatrixXd third = T.entry_remainder;
+      for (const Eigen::MatrixXd& H : T.curvatures) third += H.cwiseAbs();
+      s.third_order.push_back(std::move(third));
+    } else {
+      double third = T.remainder;
+      for (const Eigen::MatrixXd& H : T.curvatures) third += frobenius(H);
+      s.third_order_norm.push_back(third);
     }
-  if (symbolic.empty()) return linear_combination(terms, fixed, term_frobenius);
+  }
+  return s;
+}
+
+TaylorMatrix linear_combination(const std::vector<TaylorMatrix>& terms, const Eigen::VectorXd& weights,
+                                const SymbolicWeights& symbolic, const std::vector<double>& term_frobenius) {
+  if (symbolic.terms.empty()) return linear_combination(terms, weights, term_frobenius);
+  Eigen::VectorXd fixed = weights;
+  for (const std::size_t j : symbolic.terms) fixed(static_cast<Eigen::Index>(j)) = 0.0;
   TaylorMatrix X;
-  double rounding = sum_coefficients(terms, fixed, term_frobenius, X);
-  const int s = X.symbols(), all = s + static_cast<int>(symbolic.size());
-  X = with_symbols(X, all);
+  const int s = terms[0].symbols(), all = s + static_cast<int>(symbolic.terms.size());
+  double rounding = sum_coefficients(terms, fixed, term_frobenius, all, X);
   // Δ and the third-order terms V ω Σ_p H_p ε_p entry by entry where the entries' remainders are known (then
   // |Σ_p H_p ε_p| <= Σ_p |H_p|), else in norm.
   Eigen::MatrixXd E = combined_entry_remainders(terms, fixed);
   double remainder = E.size() ? 0.0 : summed_remainders(terms, fixed);
-  for (std::size_t r = 0; r < symbolic.size(); ++r) {
-    const TaylorMatrix& T = terms[symbolic[r]];
-    const double V = std::abs(weights(static_cast<Eigen::Index>(symbolic[r])));
+  for (std::size_t r = 0; r < symbolic.terms.size(); ++r) {
+    const TaylorMatrix& T = terms[symbolic.terms[r]];
+    const double V = std::abs(weights(static_cast<Eigen::Index>(symbolic.terms[r])));
     const int omega = s + static_cast<int>(r);
     X.slopes[omega] = V * T.centre;
     for (int k = 0; k < s; ++k) X.curvatures[static_cast<std::size_t>(pair_index(k, omega))] = V * T.slopes[k];
-    if (E.size()) {
-      const UpwardRounding upward;  // sums and products of non-negative terms
-      Eigen::MatrixXd third = T.entry_remainder;
-      for (const Eigen::MatrixXd& H : T.curvatures) third += H.cwiseAbs();
-      E += V * third;
-    } else {
-      double third = T.remainder;  // V ω (Σ H_p ε_p + Δ): third order, in norm
-      for (const Eigen::MatrixXd& H : T.curvatures) third += frobenius(H);
-      remainder = up(remainder + V * third);
-    }
     // The products V x rounded within 2⁻⁵² of their moduli: at most 2⁻⁵² V ||X_j||_F over the centre and slopes.
-    rounding += kTaylorRoundoff * V * term_frobenius[symbolic[r]];
+    rounding += kTaylorRoundoff * V * term_frobenius[symbolic.terms[r]];
+    const UpwardRounding upward;  // sums and products of non-negative terms
+    if (E.size())
+      E += V * symbolic.third_order[r];
+    else
+      remainder += V * symbolic.third_order_norm[r];
   }
   X.remainder = up((E.size() ? frobenius(E) : remainder) + rounding);
   return X;
@@ -492,14 +505,13 @@ double smallest_eigenvalue_lower(const TaylorMatrix& X) {
   spread += remainder;
   const Eigen::MatrixXd magnitude = T.cwiseAbs() + spread;  // |T_ij(ε)| <= magnitude(i, j)
   const Interval a = Interval(top_entry_lower(T(0, 0), top_slopes, curvatures, m)) - Interval(remainder(0, 0));
-  Interval b2(0.0), c(kInfinity);
+  Interval b2(0.0);
+  Eigen::VectorXd diagonal(n - 1);  // lower bounds of T_ii(ε), i >= 1
   for (int i = 1; i < n; ++i) {
     b2 += boost::numeric::square(Interval(magnitude(i, 0)));
-    Interval row = Interval(T(i, i)) - Interval(spread(i, i));
-    for (int j = 1; j < n; ++j)
-      if (j != i) row -= Interval(magnitude(i, j));
-    c = Interval(std::min(c.lower(), row.lower()));
+    diagonal(i - 1) = (Interval(T(i, i)) - Interval(spread(i, i))).lower();
   }
+  const Interval c(weighted_gershgorin_lower(diagonal, magnitude.bottomRightCorner(n - 1, n - 1)));
   using boost::numeric::sqrt;
   const Interval lambda = (n == 1 ? a : (a + c) / 2.0 - sqrt(boost::numeric::square((c - a) / 2.0) + b2)) - Interval(up(rho));
   const double scale = lambda.lower() >= 0.0 ? (Interval(1.0) / (Interval(1.0) + Interval(delta))).lower()

@@ -41,6 +41,22 @@ double perron_upper(const Eigen::MatrixXd& B) {
   return std::isfinite(best) ? std::min(best, rows) : rows;
 }
 
+double weighted_gershgorin_lower(const Eigen::VectorXd& d, const Eigen::MatrixXd& B) {
+  const auto n = d.size();
+  if (n == 0) return kInfinity;
+  const double t = d.maxCoeff();
+  const UpwardRounding upward;
+  Eigen::MatrixXd K = B.cwiseMax(B.transpose());
+  double gershgorin = kInfinity;
+  for (Eigen::Index i = 0; i < n; ++i) {
+    K(i, i) = (Interval(t) - Interval(d(i))).upper();
+    double row = 0.0;
+    for (Eigen::Index j = 0; j < n; ++j) row += j == i ? 0.0 : B(i, j);
+    gershgorin = std::min(gershgorin, (Interval(d(i)) - Interval(row)).lower());
+  }
+  return std::max(gershgorin, (Interval(t) - Interval(perron_upper(K))).lower());
+}
+
 double spectral_norm(const Eigen::MatrixXd& A) {
   return std::sqrt(symmetric_eigenvalues(A * A.transpose()).maxCoeff());
 }

@@ -117,7 +117,7 @@ TEST(Spectrum, SpectralNormUpperHoldsAndIsTight) {
 
 // The Perron root's bound (weighted Gershgorin): a path 0 - 1 - 10, whose spectral radius is √101 = 10.05 and whose
 // row sums reach 11; a matrix with a zero row; an empty one. On random non-negative B, never below ρ(B) and never above
-// the largest row sum, and never below λmax of a symmetric G with |G| <= B (random signs, entries scaled down).
+// the largest row sum, and never below λmax of a symmetric G with |G| <= B (B with random signs).
 TEST(Spectrum, PerronRootBoundHoldsAndBeatsTheRowSums) {
   Eigen::Matrix3d path;
   path << 0, 1, 0, 1, 0, 10, 0, 10, 0;
@@ -140,6 +140,35 @@ TEST(Spectrum, PerronRootBoundHoldsAndBeatsTheRowSums) {
     Eigen::MatrixXd G = B.cwiseProduct(signs.cwiseSign());
     G = (G + G.transpose()).eval() / 2.0;
     EXPECT_LE(obsgain::symmetric_eigenvalues(G).maxCoeff(), bound) << n;
+  }
+}
+
+// λmin from diagonal lower bounds and off-diagonal moduli (weighted Gershgorin): on the path 0 - 1 - 10 with the
+// diagonal 5, λmin = 5 - √101 exactly where Gershgorin's rows give 5 - 11. On random bounds, with unequal diagonals,
+// never above λmin of any symmetric S inside them (the diagonals at their bounds or above, random signs), and never
+// below Gershgorin's.
+TEST(Spectrum, WeightedGershgorinBoundsEveryMemberFromBelow) {
+  Eigen::Matrix3d path;
+  path << 0, 1, 0, 1, 0, 10, 0, 10, 0;
+  const double exact = 5.0 - std::sqrt(101.0);
+  EXPECT_LE(obsgain::weighted_gershgorin_lower(Eigen::Vector3d::Constant(5.0), path), exact);
+  EXPECT_GE(obsgain::weighted_gershgorin_lower(Eigen::Vector3d::Constant(5.0), path), exact - 1e-2);
+  EXPECT_EQ(obsgain::weighted_gershgorin_lower(Eigen::VectorXd(0), Eigen::MatrixXd(0, 0)), obsgain::kInfinity);
+  std::srand(11);
+  for (int trial = 0; trial < 40; ++trial) {
+    const int n = 1 + trial % 7;
+    const Eigen::VectorXd d = 3.0 * Eigen::VectorXd::Random(n);
+    const Eigen::MatrixXd A = Eigen::MatrixXd::Random(n, n).cwiseAbs(), B = A + A.transpose();
+    const double bound = obsgain::weighted_gershgorin_lower(d, B);
+    double gershgorin = obsgain::kInfinity;
+    for (int i = 0; i < n; ++i) gershgorin = std::min(gershgorin, d(i) - (B.row(i).sum() - B(i, i)));
+    EXPECT_GE(bound, gershgorin - 1e-12) << n;
+    for (int member = 0; member < 5; ++member) {
+      Eigen::MatrixXd S = B.cwiseProduct(Eigen::MatrixXd::Random(n, n).cwiseSign());
+      S = (S + S.transpose()).eval() / 2.0;
+      S.diagonal() = d + Eigen::VectorXd::Random(n).cwiseAbs() * (member % 2);
+      EXPECT_LE(bound, obsgain::symmetric_eigenvalues(S)(0)) << n;
+    }
   }
 }
 

@@ -317,6 +317,23 @@ Eigen::MatrixXd member(const obsgain::TaylorMatrix& X, const std::vector<double>
   return Y;
 }
 
+// The envelope's remainder, ((r_X + r_Y)² + r_Y²)^½, is attained: with the polynomial parts zero, Δ_X = r_X u vᵀ and
+// Δ_Y = r_Y u vᵀ (unit u, v) make [Δ_X + Δ_Y, Δ_Y]ᵀ = [r_X + r_Y; r_Y] ⊗ v uᵀ, of exactly that norm
+// (docs/theory.md, "Remainders entry by entry in the combinations"). r_X + 2 r_Y would be 1.9 here, not √2.05.
+TEST(TaylorMatrices, PatternEnvelopeRemainderIsAttained) {
+  obsgain::TaylorMatrix X, Y;
+  X.centre = Y.centre = Eigen::MatrixXd::Zero(3, 3);
+  X.remainder = 0.7;
+  Y.remainder = 0.6;
+  const obsgain::TaylorMatrix envelope = obsgain::pattern_envelope(X, Y, 0.0);
+  const Eigen::Vector3d u = Eigen::Vector3d(1.0, -2.0, 2.0) / 3.0, v = Eigen::Vector3d(0.0, 0.6, 0.8);
+  Eigen::MatrixXd attained(6, 3);
+  attained.topRows(3) = ((X.remainder + Y.remainder) * u * v.transpose()).transpose();
+  attained.bottomRows(3) = (Y.remainder * u * v.transpose()).transpose();
+  EXPECT_GE(envelope.remainder, obsgain::spectral_norm(attained));
+  EXPECT_NEAR(envelope.remainder, std::sqrt(2.05), 1e-12);
+}
+
 // Every saturation pattern at once: ||A D + R|| <= ||[A + R, R]|| for every diagonal D in [0, 1]ⁿ (XXᵀ is convex in
 // each column), on random matrices and on Taylor matrices over a box (norm_upper of the envelope bounds every member
 // and pattern). On the arms with friction the envelope loses little: at random configurations its maximum over the
@@ -386,7 +403,8 @@ TEST(TaylorMatrices, SymbolicWeightsCoverEveryWeightInTheirBox) {
       V(j) = 1.0 + unit(rng);
       free[j] = (trial + j) % 2 == 0;
     }
-    const obsgain::TaylorMatrix Y = obsgain::linear_combination(X, V, free, obsgain::frobenius_uppers(X));
+    const obsgain::TaylorMatrix Y =
+        obsgain::linear_combination(X, V, obsgain::symbolic_weights(X, free), obsgain::frobenius_uppers(X));
     for (int point = 0; point < 30; ++point) {
       std::vector<double> e(Y.symbols());
       for (int k = 0; k < symbols; ++k) e[k] = unit(rng);
@@ -407,8 +425,8 @@ TEST(TaylorMatrices, SymbolicWeightsCoverEveryWeightInTheirBox) {
 
 // A combination's remainder where the terms' remainders (and, for weights carried as symbols, their curvatures, third
 // order with the weight's symbol) sit in different entries: the Frobenius norm of their entrywise sum, not the sum of
-// their norms (docs/theory.md, "M⁻¹ over a box"). Two 2 x 2 terms over one symbol: X_0 with curvature 0.3 and
-// remainder 0.1 in entry (0, 0), X_1 with 0.4 and 0.2 in entry (1, 1).
+// their norms (docs/theory.md, "Remainders entry by entry in the combinations"). Two 2 x 2 terms over one symbol: X_0
+// with curvature 0.3 and remainder 0.1 in entry (0, 0), X_1 with 0.4 and 0.2 in entry (1, 1).
 TEST(TaylorMatrices, CombinationRemaindersAddEntryByEntry) {
   std::vector<obsgain::TaylorMatrix> X(2);
   for (int j = 0; j < 2; ++j) {
@@ -426,12 +444,15 @@ TEST(TaylorMatrices, CombinationRemaindersAddEntryByEntry) {
   EXPECT_NEAR(fixed, std::sqrt(0.40), 1e-12);
   // Both weights symbols, V = (2, 3): V_j ω_j (H_j ε² + Δ_j) is within diag(2 (0.3 + 0.1), 3 (0.4 + 0.2)) entrywise,
   // ||·||_F = √3.88 (the norms' sum: 2.6).
-  const double symbolic = obsgain::linear_combination(X, Eigen::Vector2d(2.0, 3.0), {true, true}, frobenius).remainder;
+  const double symbolic =
+      obsgain::linear_combination(X, Eigen::Vector2d(2.0, 3.0), obsgain::symbolic_weights(X, {true, true}), frobenius).remainder;
   EXPECT_NEAR(symbolic, std::sqrt(3.88), 1e-12);
   // Where one term's entries are not known, the norms add.
   X[1].entry_remainder.resize(0, 0);
   EXPECT_NEAR(obsgain::linear_combination(X, Eigen::Vector2d(2.0, -3.0), frobenius).remainder, 0.8, 1e-12);
-  EXPECT_NEAR(obsgain::linear_combination(X, Eigen::Vector2d(2.0, 3.0), {true, true}, frobenius).remainder, 2.6, 1e-12);
+  EXPECT_NEAR(
+      obsgain::linear_combination(X, Eigen::Vector2d(2.0, 3.0), obsgain::symbolic_weights(X, {true, true}), frobenius).remainder,
+      2.6, 1e-12);
 }
 
 // The library's forms of M and the Christoffel tensors over the box centre ± radius of the searched joints, the other

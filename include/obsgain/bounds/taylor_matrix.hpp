@@ -54,12 +54,23 @@ TaylorMatrix linear_combination(const std::vector<TaylorMatrix>& terms, const Ei
 // combinations (one Gram matrix of the terms per coefficient): the cheap bound of many combinations at once, the
 // inertia floor's route (bounds/box_bounds.cpp).
 double largest_combination_frobenius_upper(const std::vector<TaylorMatrix>& terms, const Eigen::MatrixXd& W);
+// Terms whose weights are carried as symbols (`free[j]`), with what each adds to every combination's remainder, formed
+// once for the many combinations of the same terms: its curvatures and remainder, Σ_p |H_jp| + |Δ_j| entry by entry
+// where every term's entries' remainders are known (`third_order`), else Σ_p ||H_jp||_F + ||Δ_j|| (`third_order_norm`),
+// rounded up, in the order of `terms`.
+struct SymbolicWeights {
+  std::vector<bool> free;
+  std::vector<std::size_t> terms;
+  std::vector<Eigen::MatrixXd> third_order;
+  std::vector<double> third_order_norm;
+};
+SymbolicWeights symbolic_weights(const std::vector<TaylorMatrix>& terms, const std::vector<bool>& free);
 // The same with some weights free: Σ_j w_j X_j over the fixed ones, plus Σ_j V_j ω_j X_j over the free ones
-// (`free[j]`, V_j = weights(j)), each ω_j ∈ [-1, 1] a symbol of its own after X's: its term's centre is a slope, its
-// slopes are curvatures with ω_j, and its curvatures (third order) join the remainder (entry by entry with the
-// remainders, where those are known). Every weight in [-V_j, V_j] at once, for the price of a few symbols.
+// (V_j = |weights(j)|), each ω_j ∈ [-1, 1] a symbol of its own after X's: its term's centre is a slope, its slopes are
+// curvatures with ω_j, and its curvatures (third order) join the remainder (entry by entry with the remainders, where
+// those are known). Every weight in [-V_j, V_j] at once, for the price of a few symbols.
 TaylorMatrix linear_combination(const std::vector<TaylorMatrix>& terms, const Eigen::VectorXd& weights,
-                                const std::vector<bool>& free, const std::vector<double>& frobenius);
+                                const SymbolicWeights& symbolic, const std::vector<double>& frobenius);
 // X over `symbols` symbols, the ones beyond its own not entering it.
 TaylorMatrix with_symbols(const TaylorMatrix& X, int symbols);
 // Their frobenius_upper(), for linear_combination.

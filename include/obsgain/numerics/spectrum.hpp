@@ -25,6 +25,11 @@ SymmetricEigen symmetric_eigen(const Eigen::MatrixXd& S);
 // rounding upward (B x of non-negative terms is then at least its exact value). Never above the largest row sum
 // (x = 1, Gershgorin's bound of B).
 double perron_upper(const Eigen::MatrixXd& B);
+// A lower bound of λmin of every symmetric S with S_ii >= d_i and |S_ij| <= B_ij (i != j; B's diagonal not read): for
+// unit z, zᵀSz >= Σ d_i z_i² - |z|ᵀB|z| = t - |z|ᵀK|z| with t = max d_i and K = diag(t - d) + B off the diagonal, so
+// λmin >= t - ρ(max(K, Kᵀ)), bounded by perron_upper (a weighted Gershgorin bound; never below the plain one,
+// min_i d_i - Σ_j B_ij, which is also taken). +∞ for the empty matrix.
+double weighted_gershgorin_lower(const Eigen::VectorXd& d, const Eigen::MatrixXd& B);
 // ||A||₂ in floating point, as Eigen's operatorNorm computes it (an estimate: spectral_norm_upper bounds it).
 double spectral_norm(const Eigen::MatrixXd& A);
 // G = U T Uᵀ, T quasi upper triangular, U orthogonal.
