@@ -426,16 +426,17 @@ std::vector<Eigen::VectorXd> enumerated_vertices(const Eigen::VectorXd& V, const
 double choices_upper(const LipschitzTerms& t, const BoxForms& d, const VelocityChoices& v, double lower,
                      std::vector<double>& weights, double& work) {
   const std::vector<double> A_frobenius = frobenius_uppers(t.A);
-  const SymbolicWeights free = symbolic_weights(t.A, symbolic_velocities(t.A, A_frobenius, v.velocity_bounds));
-  const std::vector<Eigen::VectorXd> ws = enumerated_vertices(v.velocity_bounds, free.free, v.frictionless);
+  const std::vector<bool> free = symbolic_velocities(t.A, A_frobenius, v.velocity_bounds);
+  const SymbolicWeights symbolic = symbolic_weights(t.A, free);
+  const std::vector<Eigen::VectorXd> ws = enumerated_vertices(v.velocity_bounds, free, v.frictionless);
   std::vector<VertexEnvelope> vertices;
   std::vector<Choice> choices;
   // R over the vertices' symbols: the box's and one per velocity component carried as a symbol.
-  const TaylorMatrix R = with_symbols(t.R, t.R.symbols() + static_cast<int>(free.terms.size()));
+  const TaylorMatrix R = with_symbols(t.R, t.R.symbols() + static_cast<int>(symbolic.terms.size()));
   const double R_frobenius = R.frobenius_upper();
   for (const Eigen::VectorXd& w : ws) {
     VertexEnvelope e;
-    e.Aw = linear_combination(t.A, w, free, A_frobenius);
+    e.Aw = linear_combination(t.A, w, symbolic, A_frobenius);
     e.Aw_frobenius = e.Aw.frobenius_upper();
     weigh_sides(e.Aw, d, weights);
     e.envelope = v.frictionless ? e.Aw : pattern_envelope(e.Aw, R, e.Aw_frobenius + R_frobenius);

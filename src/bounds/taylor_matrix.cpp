@@ -125,9 +125,14 @@ namespace {
 // Σ_j |w_j| |Δ_j| entry by entry, where every term's entries' remainders are known (empty otherwise): its Frobenius
 // norm bounds the combination's Δ, and is at most Σ_j |w_j| ||Δ_j||_F, less where the terms' remainders sit in
 // different entries (docs/theory.md, "Remainders entry by entry in the combinations").
+// Whether every term's entries' remainders are known: the combinations then add remainders entry by entry.
+bool entries_known(const std::vector<TaylorMatrix>& terms) {
+  return std::all_of(terms.begin(), terms.end(),
+                     [](const TaylorMatrix& X) { return X.entry_remainder.size() == X.centre.size(); });
+}
+
 Eigen::MatrixXd combined_entry_remainders(const std::vector<TaylorMatrix>& terms, const Eigen::VectorXd& weights) {
-  for (const TaylorMatrix& X : terms)
-    if (X.entry_remainder.size() != X.centre.size()) return {};
+  if (!entries_known(terms)) return {};
   const UpwardRounding upward;  // sums and products of non-negative terms, rounded up
   Eigen::MatrixXd E = Eigen::MatrixXd::Zero(terms[0].centre.rows(), terms[0].centre.cols());
   for (std::size_t j = 0; j < terms.size(); ++j) {
@@ -212,9 +217,8 @@ double largest_combination_frobenius_upper(const std::vector<TaylorMatrix>& term
 }
 
 SymbolicWeights symbolic_weights(const std::vector<TaylorMatrix>& terms, const std::vector<bool>& free) {
-  SymbolicWeights s{free, {}, {}, {}};
-  bool by_entry = true;
-  for (const TaylorMatrix& X : terms) by_entry = by_entry && X.entry_remainder.size() == X.centre.size();
+  SymbolicWeights s;
+  const bool by_entry = entries_known(terms);
   const UpwardRounding upward;  // sums of non-negative terms
   for (std::size_t j = 0; j < terms.size(); ++j) {
     if (!free[j]) continue;

@@ -59,8 +59,7 @@ double largest_combination_frobenius_upper(const std::vector<TaylorMatrix>& term
 // where every term's entries' remainders are known (`third_order`), else Σ_p ||H_jp||_F + ||Δ_j|| (`third_order_norm`),
 // rounded up, in the order of `terms`.
 struct SymbolicWeights {
-  std::vector<bool> free;
-  std::vector<std::size_t> terms;
+  std::vector<std::size_t> terms;  // the free ones
   std::vector<Eigen::MatrixXd> third_order;
   std::vector<double> third_order_norm;
 };
