@@ -247,6 +247,8 @@ BoxBounds::BoxBounds(const Model& model, const JointSearch& search, const Eigen:
   if (scaling.size()) scaling_ = similarity(scaling);
 }
 
+double BoxBounds::value_work() const { return box_costs(model_.dof(), 0, frictionless_).point; }
+
 BoxBound BoxBounds::inverse_inertia(const std::vector<Interval>& box) const {
   const BoxForms d = box_forms(model_, search_, box, false);
   const BoxCosts costs = box_costs(d.n, d.symbols, frictionless_);
@@ -537,12 +539,11 @@ BoxBound BoxBounds::joint_lipschitz(const std::vector<Interval>& box, double low
   const BoxForms d = box_forms(model_, search_, box, true);
   const std::vector<TaylorMatrix> J = unit_jacobians(d);
   const TaylorInverse inverse_M = inverse(d.M, d.n, d.symbols);
-  // The branch and bound evaluates the value attained at the box's midpoint with every bound: counted here.
   const BoxCosts costs = box_costs(d.n, d.symbols, frictionless_);
   const double inertia_route_work = costs.refinement + costs.inertia_route;
   if (!inverse_M.proven) {
     BoxBound bound = by_inertia_floor(d, J);
-    bound.work = costs.point + costs.forms + costs.failed_inverse + inertia_route_work;
+    bound.work = costs.forms + costs.failed_inverse + inertia_route_work;
     return restored(std::move(bound));
   }
   const LipschitzTerms t = lipschitz_terms(model_, d, J, velocity_bounds_, inverse_M, scaling_ ? &*scaling_ : nullptr);
@@ -553,7 +554,7 @@ BoxBound BoxBounds::joint_lipschitz(const std::vector<Interval>& box, double low
       full ? (Interval(every_choice_upper(t.A, velocity_bounds_, zero_like(t.R))) * Interval(scaling.columns.norm() * (1.0 + 1e-15)) +
               Interval(t.R.frobenius_upper())).upper()
            : every_choice_upper(t.A, velocity_bounds_, t.R);
-  BoxBound bound{every_choice + t.tail, {}, costs.point + costs.forms + costs.products};
+  BoxBound bound{every_choice + t.tail, {}, costs.forms + costs.products};
   if (bound.upper <= lower) {  // cannot beat the value attained: no choice needs enumerating
     weigh_sides(linear_combination(t.A, velocity_bounds_, frobenius_uppers(t.A)), d, bound.split_weight);
     return restored(std::move(bound));

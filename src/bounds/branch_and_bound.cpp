@@ -35,8 +35,6 @@ using Queue = std::priority_queue<QueuedBox, std::vector<QueuedBox>, LowerPriori
 
 struct Child {
   std::vector<Interval> x;
-  Eigen::VectorXd midpoint;
-  double value = 0.0;
   BoxBound bound;
 };
 
@@ -78,11 +76,10 @@ void report(const BranchAndBoundOptions& options, const BranchAndBoundResult& r,
   options.progress(p);
 }
 
-// Evaluates one child against the bracket as the round began.
+// Bounds one child against the bracket as it stood after the round's values.
 void evaluate_child(const BranchAndBoundProblem& problem, const QueuedBox& parent, double lower, Child& child) {
   const UpwardRounding upward;
-  child.value = problem.value(child.midpoint);
-  child.bound = problem.bound(child.x, std::max(lower, child.value));
+  child.bound = problem.bound(child.x, lower);
   // A child's supremum cannot exceed its parent's bound.
   child.bound.upper = std::min(parent.upper, child.bound.upper);
 }
@@ -97,43 +94,55 @@ std::vector<std::size_t> dealt(std::size_t count) {
   return order;
 }
 
-// What a rank sends of a child it evaluated: value, upper bound, work, split weights (the box itself every rank
-// computes from its parent). Position p of the exchange holds child order[p].
+// What a rank sends of a child it evaluated: upper bound, work, split weights (the box itself every rank computes
+// from its parent). Position p of the exchange holds child order[p].
 void share_children(std::vector<Child>& children, const std::vector<std::size_t>& order, int begin, int end,
                     std::size_t dimension) {
-  const int width = 3 + static_cast<int>(dimension), count = static_cast<int>(children.size());
+  const int width = 2 + static_cast<int>(dimension), count = static_cast<int>(children.size());
   std::vector<double> values(static_cast<std::size_t>(count * width));
   for (int p = begin; p < end; ++p) {
     const Child& child = children[order[static_cast<std::size_t>(p)]];
     double* out = &values[static_cast<std::size_t>(p * width)];
-    out[0] = child.value;
-    out[1] = child.bound.upper;
-    out[2] = child.bound.work;
+    out[0] = child.bound.upper;
+    out[1] = child.bound.work;
     // A box that is split has one weight per side; a discarded one may have fewer (never read).
     const auto& weight = child.bound.split_weight;
-    std::copy_n(weight.begin(), std::min(weight.size(), dimension), out + 3);
+    std::copy_n(weight.begin(), std::min(weight.size(), dimension), out + 2);
   }
   distributed::share_slices(values, count, width);
   for (int p = 0; p < count; ++p) {
     if (p >= begin && p < end) continue;
     Child& child = children[order[static_cast<std::size_t>(p)]];
     const double* in = &values[static_cast<std::size_t>(p * width)];
-    child.value = in[0];
-    child.bound.upper = in[1];
-    child.bound.work = in[2];
-    child.bound.split_weight.assign(in + 3, in + width);
+    child.bound.upper = in[0];
+    child.bound.work = in[1];
+    child.bound.split_weight.assign(in + 2, in + width);
   }
 }
 
-// Evaluates the children of one round in parallel, each against the bracket as the round began: the threads of
-// this rank its share of them, then the ranks exchange their shares (numerics/distributed.hpp).
+// The values attained at the midpoints of the round's parents, in parent order: the threads of this rank its slice
+// of them, then the ranks exchange their slices. The boxes split are the ones whose bounds are largest, so this is
+// where a value above the attained one is to be found; a box never split gets no value (docs/theory.md, "Lower
+// ends").
+std::vector<double> midpoint_values(const BranchAndBoundProblem& problem, const std::vector<QueuedBox>& parents,
+                                    ParallelFor& pool) {
+  const auto count = static_cast<int>(parents.size());
+  std::vector<double> values(parents.size());
+  const auto [begin, end] = distributed::slice(count, distributed::rank(), distributed::size());
+  pool.run(end - begin, [&](int k) {
+    const auto p = static_cast<std::size_t>(begin + k);
+    values[p] = problem.value(midpoint(parents[p].x));
+  });
+  if (distributed::size() > 1) distributed::share_slices(values, count, 1);
+  return values;
+}
+
+// Bounds the children of one round in parallel, each against the same attained value `lower`: the threads of this
+// rank its share of them, then the ranks exchange their shares (numerics/distributed.hpp).
 std::vector<Child> evaluate_round(const BranchAndBoundProblem& problem, const std::vector<QueuedBox>& parents,
                                   double lower, ParallelFor& pool) {
   std::vector<Child> children(2 * parents.size());
-  for (std::size_t c = 0; c < children.size(); ++c) {
-    children[c].x = half(parents[c / 2], static_cast<int>(c % 2));
-    children[c].midpoint = midpoint(children[c].x);
-  }
+  for (std::size_t c = 0; c < children.size(); ++c) children[c].x = half(parents[c / 2], static_cast<int>(c % 2));
   const std::vector<std::size_t> order = dealt(children.size());
   const auto [begin, end] = distributed::slice(static_cast<int>(children.size()), distributed::rank(), distributed::size());
   pool.run(end - begin, [&](int k) {
@@ -217,12 +226,15 @@ BranchAndBoundResult branch_and_bound(const BranchAndBoundProblem& problem, cons
       parents.push_back(queue.top());
       queue.pop();
     }
-    std::vector<Child> children = evaluate_round(problem, parents, r.lower, pool);
-    for (const Child& child : children)
-      if (child.value > r.lower) {
-        r.lower = child.value;
-        r.argmax = child.midpoint;
+    const std::vector<double> values = midpoint_values(problem, parents, pool);
+    for (std::size_t p = 0; p < parents.size(); ++p) {
+      r.work += problem.value_work;
+      if (values[p] > r.lower) {
+        r.lower = values[p];
+        r.argmax = midpoint(parents[p].x);
       }
+    }
+    std::vector<Child> children = evaluate_round(problem, parents, r.lower, pool);
     for (Child& child : children) {
       r.work += child.bound.work;
       if (child.bound.upper > r.lower)

@@ -89,9 +89,9 @@ std::optional<CertifiedBounds> certify_bounds(const Model& model, const BoundRep
   BudgetShares budget(options);
   // A request names the scaling T of L_T (empty for the others): a checkpoint of another T is not taken.
   const auto search = [&](double share, const char* name, const auto& bound, const auto& value, const Eigen::VectorXd& seed,
-                          const Eigen::MatrixXd& scaling = {}) {
+                          const Eigen::MatrixXd& scaling = {}, double value_work = 0.0) {
     const BoundBracket b = journaled_search(options, search_request(model, V, options, scaling), budget.next(share, name),
-                                            [&](const BranchAndBoundOptions& o) { return search_joints(s, bound, value, seed, o); });
+                                            [&](const BranchAndBoundOptions& o) { return search_joints(s, bound, value, seed, o, value_work); });
     budget.spent(b);
     return b;
   };
@@ -100,7 +100,8 @@ std::optional<CertifiedBounds> certify_bounds(const Model& model, const BoundRep
   const auto lipschitz = [&](double share, const char* name, const BoxBounds& b, const Eigen::MatrixXd& scaling,
                              const Eigen::VectorXd& seed) {
     return search(share, name, [&](const auto& box, double lower) { return b.joint_lipschitz(box, lower); },
-                  [&](const Eigen::VectorXd& q) { return max_joint_lipschitz_norm(model, q, V, scaling); }, seed, scaling);
+                  [&](const Eigen::VectorXd& q) { return max_joint_lipschitz_norm(model, q, V, scaling); }, seed, scaling,
+                  b.value_work());
   };
   const BoxBounds scaled_boxes(model, s, V, numeric.scaling);
   const auto run_L = [&](double joint_share, double scaled_share) {

@@ -32,11 +32,12 @@ JointSearch joint_search(const Model& model, const std::vector<int>& joints) {
 
 BoundBracket search_joints(const JointSearch& search, const std::function<BoxBound(const std::vector<Interval>&, double)>& bound,
                            const std::function<double(const Eigen::VectorXd&)>& value, const Eigen::VectorXd& seed,
-                           const BranchAndBoundOptions& options) {
+                           const BranchAndBoundOptions& options, double value_work) {
   BranchAndBoundProblem problem;
   problem.domain = search.domain;
   problem.bound = bound;
   problem.value = [&](const Eigen::VectorXd& x) { return value(search.configuration(x)); };
+  problem.value_work = value_work;
   const BranchAndBoundResult r = branch_and_bound(problem, search.coordinates(seed), options);
   return {r.lower, r.upper, search.configuration(r.argmax), r.boxes, r.seconds, r.work, r.stop};
 }

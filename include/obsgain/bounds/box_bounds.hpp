@@ -28,7 +28,7 @@ struct BoxCosts {
   double vertex;      // one velocity vertex's A(w) and its envelope (`symbols` then counts the velocity's too)
   double refinement;  // one fine norm or eigenvalue bound of an n x n form
   double choice;      // one pattern's cheap bound, or a centre's Cholesky test
-  double point;       // the value attained at the box's midpoint (every vertex and pattern, in double)
+  double point;       // the value attained at a point (every vertex and pattern, in double)
   double jacobian_vertex;  // one vertex's J(w) = Σ_j w_j J_j and its cheap bound (B's search)
   double inertia_route;    // the cheap bounds of J(w) at every vertex at once (the inertia floor's route)
 };
@@ -75,6 +75,9 @@ class BoxBounds {
   BoxBound inverse_inertia(const std::vector<Interval>& box) const;
   BoxBound jacobian(const std::vector<Interval>& box, double lower) const;
   BoxBound joint_lipschitz(const std::vector<Interval>& box, double lower) const;
+  // What the value attained at one point counts (every vertex and pattern, in double): the branch and bound takes it
+  // at the midpoint of every box it splits.
+  double value_work() const;
   // Φ over the box as a polytope cell (perturbation_polytope.hpp), without its vertices.
   PolytopeCell perturbation_cell(const std::vector<Interval>& box) const;
   PerturbationForms perturbation_forms(const std::vector<Interval>& box) const;

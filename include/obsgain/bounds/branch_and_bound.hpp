@@ -3,9 +3,9 @@
 // bracket [attained, largest open or discarded bound] is a proof for the whole box whenever it stops.
 //
 // Deterministic: the search runs in synchronous rounds. Each round takes a fixed number of the best boxes (ties
-// broken by creation order), evaluates their children in parallel against the bracket as it stood when the round
-// began, and merges the results in box order. The bracket is therefore the same for any thread count, on every
-// run, unless the wall-clock limit ends the search (the result then says so).
+// broken by creation order), evaluates f at their midpoints and merges those values in box order, then bounds their
+// children in parallel against the value attained so far and merges them in box order. The bracket is therefore the
+// same for any thread count, on every run, unless the wall-clock limit ends the search (the result then says so).
 #pragma once
 
 #include "obsgain/numerics/interval.hpp"
@@ -84,8 +84,9 @@ struct BranchAndBoundProblem {
   // A proven upper bound of f over `box`. `lower` is the best value attained so far: the bound may stop refining
   // as soon as it is sure to be below it (it must still be an upper bound).
   std::function<BoxBound(const std::vector<Interval>& box, double lower)> bound;
-  // f at a point (a value attained: a lower bound of the supremum).
+  // f at a point (a value attained: a lower bound of the supremum), taken at the midpoint of every box split.
   std::function<double(const Eigen::VectorXd& x)> value;
+  double value_work = 0.0;  // what one evaluation of `value` counts (as BoxBound::work)
 };
 
 struct BranchAndBoundResult {

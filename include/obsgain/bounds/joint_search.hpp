@@ -23,9 +23,10 @@ struct JointSearch {
 JointSearch joint_search(const Model& model, const std::vector<int>& joints);
 
 // sup of value(q) over the search: `bound(box, lower)` proves an upper bound over a box of the searched
-// coordinates; `value(q)` evaluates at a full configuration; `seed` (a full configuration) is tried first.
+// coordinates; `value(q)` evaluates at a full configuration and counts `value_work`; `seed` (a full configuration) is
+// tried first.
 BoundBracket search_joints(const JointSearch& search, const std::function<BoxBound(const std::vector<Interval>&, double)>& bound,
                            const std::function<double(const Eigen::VectorXd&)>& value, const Eigen::VectorXd& seed,
-                           const BranchAndBoundOptions& options);
+                           const BranchAndBoundOptions& options, double value_work = 0.0);
 
 }  // namespace obsgain
