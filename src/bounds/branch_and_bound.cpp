@@ -255,6 +255,7 @@ BranchAndBoundResult branch_and_bound(const BranchAndBoundProblem& problem, cons
   }
   // Every part of the domain is in the queue or was discarded with a proven bound below the attained value.
   r.upper = std::max(queue.empty() ? 0.0 : queue.top().upper, pruned_upper);
+  if (options.stopped) options.stopped(snapshot(std::move(queue), r, pruned_upper, next_id));
   r.lower = std::min(r.lower, r.upper);  // the attained value is a float estimate: ulps
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return r;

@@ -11,6 +11,8 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <tuple>
+#include <utility>
 
 namespace obsgain {
 
@@ -45,19 +47,57 @@ class BudgetShares {
   double used_ = 0.0;
 };
 
+// L_joint or L_T, searched in stages: `run` searches to the options' budget (from `options.resume` when given) and
+// hands over the state it stops in, from which a larger budget goes on exactly as one search with it from the start
+// would have; `finish` records a bracket as final in the checkpoint.
+struct StagedSearch {
+  std::function<BoundBracket(const BranchAndBoundOptions&, SearchState* stopped_in)> run;
+  std::function<void(const BoundBracket&)> finish;
+};
+
+// L_joint and L_T on the options' budget (docs/theory.md, "The budget"). They race: each first gets `race_share` of
+// it; then the one whose proven upper end is lower (the one the design uses: the scaled certificate only where L_T's
+// is below L_joint's) goes on with what the other left, and the other stops there. A resumed job takes the brackets
+// finished as they are: a leader that went on has already done its rest.
+std::pair<BoundBracket, BoundBracket> race(const StagedSearch& joint, const StagedSearch& scaled,
+                                           BranchAndBoundOptions part, double race_share) {
+  const double whole = part.work_budget;
+  part.work_budget = race_share * whole;
+  SearchState joint_state, scaled_state;
+  BoundBracket J = joint.run(part, &joint_state), T = scaled.run(part, &scaled_state);
+  const bool scaled_leads = T.upper < J.upper;
+  BoundBracket& leader = scaled_leads ? T : J;
+  BoundBracket& other = scaled_leads ? J : T;
+  const StagedSearch& leading = scaled_leads ? scaled : joint;
+  if (other.stop == SearchStop::budget) {
+    other.stop = SearchStop::race;
+    (scaled_leads ? joint : scaled).finish(other);
+  }
+  part.work_budget = whole - other.work;
+  if (leader.stop == SearchStop::budget && leader.work < part.work_budget) {
+    part.resume = scaled_leads ? &scaled_state : &joint_state;
+    SearchState end;
+    const double seconds = leader.seconds;
+    leader = leading.run(part, &end);
+    leader.seconds += seconds;
+  }
+  leading.finish(leader);
+  return {J, T};
+}
+
 }  // namespace
 
 BoundBracket journaled_search(const CertifiedOptions& options, const std::string& request, BranchAndBoundOptions search,
-                              const std::function<BoundBracket(const BranchAndBoundOptions&)>& run) {
+                              const std::function<BoundBracket(const BranchAndBoundOptions&)>& run, bool final) {
   SearchJournal* journal = options.journal.get();
   if (journal == nullptr) return run(search);
   const std::string name = search.name;
   if (const auto done = journal->finished(name, request)) return *done;
-  search.resume = journal->state(name, request);
+  if (!search.resume) search.resume = journal->state(name, request);  // a later stage resumes from its own stop
   search.save = [journal, name, request](const SearchState& state) { journal->save(name, request, state); };
   search.save_seconds = options.checkpoint_seconds;
   const BoundBracket bracket = run(search);
-  journal->finish(name, request, bracket);
+  if (final || bracket.stop != SearchStop::budget) journal->finish(name, request, bracket);
   return bracket;
 }
 
@@ -88,33 +128,52 @@ std::optional<CertifiedBounds> certify_bounds(const Model& model, const BoundRep
   const bool joint = options.focus == LipschitzFocus::joint;
   BudgetShares budget(options);
   // A request names the scaling T of L_T (empty for the others): a checkpoint of another T is not taken.
-  const auto search = [&](double share, const char* name, const auto& bound, const auto& value, const Eigen::VectorXd& seed,
-                          const Eigen::MatrixXd& scaling = {}, double value_work = 0.0) {
-    const BoundBracket b = journaled_search(options, search_request(model, V, options, scaling), budget.next(share, name),
-                                            [&](const BranchAndBoundOptions& o) { return search_joints(s, bound, value, seed, o, value_work); });
-    budget.spent(b);
-    return b;
+  const auto search = [&](const BranchAndBoundOptions& o, const auto& bound, const auto& value, const Eigen::VectorXd& seed,
+                          const Eigen::MatrixXd& scaling = {}, double value_work = 0.0, bool final = true) {
+    return journaled_search(options, search_request(model, V, options, scaling), o,
+                            [&](const BranchAndBoundOptions& b) { return search_joints(s, bound, value, seed, b, value_work); },
+                            final);
   };
   CertifiedBounds result;
   // L_joint (scaling empty) or L_T.
-  const auto lipschitz = [&](double share, const char* name, const BoxBounds& b, const Eigen::MatrixXd& scaling,
+  const auto lipschitz = [&](const char* name, const BoxBounds* b, const Eigen::MatrixXd& scaling,
                              const Eigen::VectorXd& seed) {
-    return search(share, name, [&](const auto& box, double lower) { return b.joint_lipschitz(box, lower); },
-                  [&](const Eigen::VectorXd& q) { return max_joint_lipschitz_norm(model, q, V, scaling); }, seed, scaling,
-                  b.value_work());
+    StagedSearch staged;
+    staged.run = [&search, &model, &V, name, b, scaling, seed](const BranchAndBoundOptions& o, SearchState* stopped_in) {
+      BranchAndBoundOptions stage = o;
+      stage.name = name;
+      if (stopped_in) stage.stopped = [stopped_in](SearchState&& state) { *stopped_in = std::move(state); };
+      return search(stage, [b](const auto& box, double lower) { return b->joint_lipschitz(box, lower); },
+                    [&](const Eigen::VectorXd& q) { return max_joint_lipschitz_norm(model, q, V, scaling); }, seed, scaling,
+                    b->value_work(), false);
+    };
+    staged.finish = [&options, name, request = search_request(model, V, options, scaling)](const BoundBracket& bracket) {
+      if (options.journal) options.journal->finish(name, request, bracket);
+    };
+    return staged;
   };
   const BoxBounds scaled_boxes(model, s, V, numeric.scaling);
-  const auto run_L = [&](double joint_share, double scaled_share) {
-    result.L_joint = lipschitz(joint_share, "L_joint", boxes, {}, numeric.L_joint.q);
-    if (numeric.scaled())
-      result.L_scaled = lipschitz(scaled_share, "L_scaled", scaled_boxes, numeric.scaling, numeric.L_scaled.q);
+  const auto run_L = [&](double share) {
+    const StagedSearch joint = lipschitz("L_joint", &boxes, {}, numeric.L_joint.q);
+    if (!numeric.scaled()) {
+      result.L_joint = joint.run(budget.next(share, "L_joint"), nullptr);
+      joint.finish(result.L_joint);
+      budget.spent(result.L_joint);
+      return;
+    }
+    const StagedSearch scaled = lipschitz("L_scaled", &scaled_boxes, numeric.scaling, numeric.L_scaled.q);
+    std::tie(result.L_joint, result.L_scaled) = race(joint, scaled, budget.next(share, ""), options.race_share);
+    budget.spent(result.L_joint);
+    budget.spent(*result.L_scaled);
   };
-  if (joint) run_L(numeric.scaled() ? 0.475 : 0.95, 0.8);
-  result.M0 = search(joint ? 0.6 : 0.5, "M0", [&](const auto& box, double) { return boxes.inverse_inertia(box); },
+  if (joint) run_L(0.95);
+  result.M0 = search(budget.next(joint ? 0.6 : 0.5, "M0"), [&](const auto& box, double) { return boxes.inverse_inertia(box); },
                      [&](const Eigen::VectorXd& q) { return inverse_inertia_norm(model, q); }, numeric.M0.q);
-  result.B = search(joint ? 1.0 : 0.8, "B", [&](const auto& box, double lower) { return boxes.jacobian(box, lower); },
+  budget.spent(result.M0);
+  result.B = search(budget.next(joint ? 1.0 : 0.8, "B"), [&](const auto& box, double lower) { return boxes.jacobian(box, lower); },
                     [&](const Eigen::VectorXd& q) { return max_coriolis_jacobian_norm(model, q, V); }, numeric.B.q);
-  if (!joint) run_L(1.0, 1.0);
+  budget.spent(result.B);
+  if (!joint) run_L(1.0);
   return result;
 }
 

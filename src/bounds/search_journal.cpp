@@ -77,7 +77,9 @@ BoundBracket read_finished(Tokens& t) {
   b.boxes = static_cast<int>(t.count());
   b.seconds = t.number();
   b.work = t.number();
-  b.stop = static_cast<SearchStop>(t.count());
+  const std::uint64_t stop = t.count();
+  if (stop > static_cast<std::uint64_t>(SearchStop::race)) t.fail(fmt::format("has stop {}, which no search ends by", stop));
+  b.stop = static_cast<SearchStop>(stop);
   b.argmax = t.vector();
   return b;
 }

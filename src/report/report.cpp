@@ -34,6 +34,7 @@ const char* stop_name(SearchStop stop) {
     case SearchStop::boxes: return "boxes";
     case SearchStop::budget: return "budget";
     case SearchStop::time: return "wall-clock limit";
+    case SearchStop::race: return "race";
   }
   return "";
 }
@@ -43,6 +44,7 @@ std::string stop_note(SearchStop stop) {
   if (stop == SearchStop::budget) return " (stopped by the budget, --bound-budget)";
   if (stop == SearchStop::boxes) return " (stopped by the box limit)";
   if (stop == SearchStop::time) return " (stopped by the wall-clock safety limit: may differ between runs)";
+  if (stop == SearchStop::race) return " (stopped after its first share: the other constant's upper end was lower)";
   return "";
 }
 

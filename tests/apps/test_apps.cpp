@@ -365,7 +365,7 @@ TEST(DesignGainsApp, OptimisersThatDisagreeAreAWarningOnNumericBoundsOnly) {
 TEST(DesignGainsApp, TheSameJsonForAnyThreadCountAndOnEveryRun) {
   const std::string examples = OBSGAIN_EXAMPLES_DIR;
   const auto design = [&](int threads) {
-    const AppRun r = run("design-gains", "--robot " + examples + "/arm3.urdf --gamma 5 --bound-budget 0.25 --quiet --json --threads " +
+    const AppRun r = run("design-gains", "--robot " + examples + "/arm3.urdf --gamma 5 --bound-budget 0.1 --quiet --json --threads " +
                                              std::to_string(threads));
     EXPECT_EQ(r.exit_code, 0) << r.err;
     nlohmann::json j = nlohmann::json::parse(r.out);
@@ -382,6 +382,7 @@ TEST(DesignGainsApp, TheSameJsonForAnyThreadCountAndOnEveryRun) {
   };
   const nlohmann::json one = design(1);
   EXPECT_EQ(one["bounds"]["brackets"]["L_joint"]["stop"], "budget");  // the budget, not the gap, ended it
+  EXPECT_EQ(one["bounds"]["brackets"]["L_scaled"]["stop"], "race");  // L_joint's upper end was lower after a fifth each
   EXPECT_EQ(one, design(2));
   EXPECT_EQ(one, design(2));
 }

@@ -18,6 +18,7 @@
 #include <fstream>
 #include <numbers>
 #include <random>
+#include <tuple>
 
 namespace {
 
@@ -403,6 +404,84 @@ TEST(ArmBrackets, ResumedSearchesEndAsSearchesNeverStopped) {
   EXPECT_THROW(obsgain::SearchJournal(path + ".missing", true), obsgain::InputError);
 }
 
+// L_joint or L_T alone, as certify_bounds searches it, with one budget from the start.
+obsgain::BoundBracket one_search(const obsgain::Model& model, const obsgain::BoundReport& numeric, bool scaled,
+                                 double work_budget) {
+  const obsgain::JointSearch s = obsgain::joint_search(model, obsgain::configuration_joints(model));
+  const Eigen::MatrixXd T = scaled ? numeric.scaling : Eigen::MatrixXd();
+  const obsgain::BoxBounds boxes(model, s, numeric.velocity_bounds, T);
+  obsgain::BranchAndBoundOptions o;
+  o.work_budget = work_budget;
+  return obsgain::search_joints(
+      s, [&](const auto& box, double lower) { return boxes.joint_lipschitz(box, lower); },
+      [&](const Eigen::VectorXd& q) { return obsgain::max_joint_lipschitz_norm(model, q, numeric.velocity_bounds, T); },
+      scaled ? numeric.L_scaled.q : numeric.L_joint.q, o, boxes.value_work());
+}
+
+// L_joint and L_T race for 95 % of the budget (docs/theory.md, "The budget"): each first searches a fifth of it, then
+// the one whose upper end is lower goes on with what the other left, and ends exactly as one search with that budget
+// from the start; the other stops at its fifth. Both ways: L_joint ahead (arm3 with a poor diagonal T) and L_T ahead
+// (the Pendubot's T halves its constant).
+TEST(LipschitzRace, TheLowerUpperEndGoesOnAsOneSearchWould) {
+  const obsgain::Model arm = obsgain::load_robot({examples + "/arm3.urdf"});
+  obsgain::BoundReport arm_numeric = light_search(arm);
+  arm_numeric.scaling = Eigen::Vector3d(1.0, 3.0, 0.3).asDiagonal();
+  arm_numeric.L_scaled.q = arm_numeric.L_joint.q;
+  obsgain::BoundReport pendubot_numeric = obsgain::compute_bounds(pendubot_model(), Eigen::Vector2d(10, 10));
+  ASSERT_TRUE(pendubot_numeric.scaled());
+  for (const auto& [model, numeric, budget] : {std::tuple{&arm, &arm_numeric, 0.1}, {&pendubot_model(), &pendubot_numeric, 0.004}}) {
+    obsgain::CertifiedOptions options;
+    options.budget_seconds = budget;
+    const obsgain::CertifiedBounds race = *obsgain::certify_bounds(*model, *numeric, options);
+    ASSERT_TRUE(race.L_scaled.has_value());
+    const bool scaled_leads = race.L_scaled->upper < race.L_joint.upper;
+    EXPECT_EQ(scaled_leads, model == &pendubot_model());
+    const obsgain::BoundBracket& leader = scaled_leads ? *race.L_scaled : race.L_joint;
+    const obsgain::BoundBracket& other = scaled_leads ? race.L_joint : *race.L_scaled;
+    const double part = 0.95 * budget, first = 0.2 * part;
+    EXPECT_EQ(other.stop, obsgain::SearchStop::race);
+    EXPECT_EQ(leader.stop, obsgain::SearchStop::budget);
+    EXPECT_GE(other.work, first);
+    EXPECT_LE(other.work, 1.5 * first);  // at most a round past it
+    EXPECT_GE(leader.work, part - other.work);
+    expect_same_bracket(leader, one_search(*model, *numeric, scaled_leads, part - other.work));
+    expect_same_bracket(other, one_search(*model, *numeric, !scaled_leads, first));
+  }
+}
+
+// A race stopped while its leader goes on (past its first fifth) and resumed from the checkpoint ends with the brackets
+// of a race never stopped: the leader's own checkpoint is ahead of its first stage, and only the leader is ahead.
+TEST(LipschitzRace, ResumedRaceEndsAsOneNeverStopped) {
+  const obsgain::Model arm = obsgain::load_robot({examples + "/arm6.urdf"});
+  obsgain::BoundReport numeric = light_search(arm);
+  numeric.scaling = (Eigen::VectorXd(6) << 1.0, 3.0, 0.3, 1.0, 3.0, 0.3).finished().asDiagonal();
+  numeric.L_scaled.q = numeric.L_joint.q;
+  obsgain::CertifiedOptions options;
+  options.budget_seconds = 3.0;  // the leader's second stage runs for more than a second: it reports progress
+  const obsgain::CertifiedBounds whole = *obsgain::certify_bounds(arm, numeric, options);
+  const std::string path = ::testing::TempDir() + "arm6_race.checkpoint";
+  obsgain::CertifiedOptions stopped = options;
+  stopped.journal = std::make_shared<obsgain::SearchJournal>(path, false);
+  stopped.checkpoint_seconds = 0.2;
+  const double first = 0.2 * 0.95 * options.budget_seconds;
+  stopped.progress = [&](const obsgain::SearchProgress& p) {
+    if (std::string(p.bound) == "L_joint" && p.work > 1.5 * first) throw std::runtime_error("stopped");
+  };
+  EXPECT_THROW(obsgain::certify_bounds(arm, numeric, stopped), std::runtime_error);
+  obsgain::CertifiedOptions resumed = options;
+  resumed.journal = std::make_shared<obsgain::SearchJournal>(path, true);
+  const obsgain::SearchState* state =
+      resumed.journal->state("L_joint", obsgain::search_request(arm, numeric.velocity_bounds, options));
+  ASSERT_NE(state, nullptr);
+  EXPECT_GT(state->work, first);
+  const obsgain::CertifiedBounds again = *obsgain::certify_bounds(arm, numeric, resumed);
+  EXPECT_LT(whole.L_joint.upper, whole.L_scaled->upper);
+  expect_same_bracket(again.L_joint, whole.L_joint);
+  expect_same_bracket(*again.L_scaled, *whole.L_scaled);
+  expect_same_bracket(again.M0, whole.M0);
+  expect_same_bracket(again.B, whole.B);
+}
+
 // The value attained is taken at the seed and at the midpoint of every box split, each counting value_work, and the
 // bracket of an analytic function closes on its maximum: f(x) = 1 - (x - 0.3)² on [0, 1], bounded by its interval
 // extension (exact over a box: x occurs once), maximum 1 at x = 0.3.
@@ -442,7 +521,7 @@ TEST(BranchAndBound, TakesValuesWhereItSplitsAndCountsThem) {
 // how a box is bounded or split, or to the work it counts, moves these (to the last digits at least): when this
 // fails, raise kSearchRules in bounds/search_journal.hpp with the new values, so that older checkpoints are refused.
 TEST(SearchRules, PinTheBoxBoundsTheirNumberStandsFor) {
-  ASSERT_EQ(obsgain::kSearchRules, 9) << "raised: re-pin the values below from this version";
+  ASSERT_EQ(obsgain::kSearchRules, 10) << "raised: re-pin the values below from this version";
   const obsgain::Model arm = obsgain::load_robot({examples + "/arm3.urdf"});
   const obsgain::JointSearch search = obsgain::joint_search(arm, obsgain::configuration_joints(arm));
   const obsgain::BoxBounds boxes(arm, search, arm.velocity_bounds);

@@ -35,8 +35,9 @@ using ProgressCallback = std::function<void(const SearchProgress&)>;
 
 // What ended a search.
 // budget: the counted work reached the budget (deterministic); time: the wall-clock limit, a safety net only (the
-// bracket may then differ between runs).
-enum class SearchStop { gap, boxes, budget, time };
+// bracket may then differ between runs); race: its first share of a budget it raced another search for, which then
+// had the lower upper end and went on (certified_bounds.hpp).
+enum class SearchStop { gap, boxes, budget, time, race };
 
 // A search between two rounds: everything it needs to continue exactly as it would have (checkpoints,
 // docs/cluster.md).
@@ -67,6 +68,9 @@ struct BranchAndBoundOptions {
   std::function<void(const SearchState&)> save;
   double save_seconds = 5.0;
   const SearchState* resume = nullptr;
+  // Handed the state the search stops in (on every rank), so that it can be continued with a larger budget: resumed
+  // from it, it ends exactly as one search with that budget would have.
+  std::function<void(SearchState&&)> stopped;
 };
 
 // An upper bound of f over one box, and how much each side contributes to the bound's excess (the side with the

@@ -28,6 +28,10 @@ struct CertifiedOptions {
   // seconds from the start (the bracket may then differ between runs, and says so). Default 3 × budget + 30 s.
   std::optional<double> wall_limit_seconds;
   LipschitzFocus focus = LipschitzFocus::joint;  // the focus gets 95 % of the budget; what it leaves passes on
+  // L_joint and L_T (where the numeric search kept a similarity scaling) race for their part of the budget: each first
+  // gets this share of it, then the one with the lower proven upper end, the one the design uses, goes on with the
+  // rest (docs/theory.md, "The budget").
+  double race_share = 0.2;
   int max_boxes = 2000000;      // per bound; reaching it leaves a wider (still valid) bracket
   int threads = 0;              // 0: all cores
   ProgressCallback progress;    // optional
@@ -45,9 +49,9 @@ struct CertifiedBounds {
 // Why a model cannot be certified, or empty when it can.
 std::string certification_unavailable(const Model& model);
 
-// Seeds its lower bounds with the numerical search's maxima. With the joint focus and a scaling in the report, L_T
-// shares L_joint's part of the budget. std::nullopt when the model cannot be
-// evaluated on intervals (certification_unavailable says why).
+// Seeds its lower bounds with the numerical search's maxima. With a scaling in the report, L_T races L_joint for its
+// part of the budget (CertifiedOptions::race_share). std::nullopt when the model cannot be evaluated on intervals
+// (certification_unavailable says why).
 std::optional<CertifiedBounds> certify_bounds(const Model& model, const BoundReport& numeric,
                                               const CertifiedOptions& options = {});
 
@@ -62,8 +66,10 @@ std::optional<BoundBracket> certify_position_sensitivity(const Model& model, con
 
 // A search of `options` through its journal when it has one: a finished bracket is taken as it is, a saved state
 // continued, and the search's progress saved. `request`: what the search answers (search_request).
+// `final` false: a stage that a larger budget may continue; the journal then records its bracket as finished only when
+// something else than the budget ended it.
 BoundBracket journaled_search(const CertifiedOptions& options, const std::string& request, BranchAndBoundOptions search,
-                              const std::function<BoundBracket(const BranchAndBoundOptions&)>& run);
+                              const std::function<BoundBracket(const BranchAndBoundOptions&)>& run, bool final = true);
 // The request a search answers, for its checkpoint: the model (name and file fingerprint), the boxes, the gap and the
 // budget, and `extra` (the acceleration box of C_q, the scaling T of L_T; its entries in order).
 std::string search_request(const Model& model, const Eigen::VectorXd& velocity_bounds, const CertifiedOptions& options,
