@@ -19,8 +19,8 @@ cmake --build build-asan -j"$jobs"
 # Carlo (45 s sanitised), the browser screenshot (Chromium's time, not obsgain's), the dense grids (the three-joint
 # bracket convergence, the vertex reduction, the URDF arm's grid, the six- and seven-joint grid of 4ⁿ vertices and
 # patterns per point: a minute or more each; the six- and seven-joint brackets themselves run sanitised), the
-# determinism runs (1 and 2 threads, twice: two minutes; the same branch and bound runs sanitised on 2 threads in
-# the bracket tests), the progress reports and the resumed searches (the same branch and bound), the three-joint
+# determinism runs (1 and 2 threads, twice: two minutes; the same branch and bound runs sanitised on 2 threads in the
+# bracket tests), the progress reports and the resumed searches and race (the same branch and bound), the three-joint
 # URDF's design and validation (the same app paths run sanitised on the one-joint URDF, the chain dynamics of 3, 6
 # and 7 joints against KDL), and the polytopic apps, the polytopic deployment and the polytopic shape search (a
 # minute or more each; the polytope, both SDP objectives and the interval check run sanitised in their unit tests),
@@ -30,7 +30,7 @@ cmake --build build-asan -j"$jobs"
 plain_only=(installed_package_consumer docs_commands_run_as_written CertifiedDesignPasses1000Trials
   report_screenshot_not_blank ThreeJointArmBracketsContainTheGrid VertexReductionAgainstDenseGrid
   BoundsOfTheThreeJointArmAgainstAGrid SixAndSevenJointArmBracketsContainTheDenseGrid
-  TheSameJsonForAnyThreadCountAndOnEveryRun LongSearchesReportProgress ResumedSearchesEndAs
+  TheSameJsonForAnyThreadCountAndOnEveryRun LongSearchesReportProgress ResumedSearchesEndAs ResumedRaceEndsAs
   DesignAndValidateAThreeJointArm
   PolytopicApps APolytopicPChosenForTheFloor PolytopicShapeSearch Arm3DesignIsCertifiedAndHoldsInMonteCarlo
   ThreeJointPolytopicCurveIsTheDesignsSearch APolytopicProofPastItsBudgetFallsBackAndNamesTheBudget)

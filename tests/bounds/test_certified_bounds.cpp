@@ -458,6 +458,7 @@ TEST(LipschitzRace, ResumedRaceEndsAsOneNeverStopped) {
   numeric.L_scaled.q = numeric.L_joint.q;
   obsgain::CertifiedOptions options;
   options.budget_seconds = 3.0;  // the leader's second stage runs for more than a second: it reports progress
+  options.wall_limit_seconds = 600.0;  // the budget, never the safety net, ends every search, however loaded the machine
   const obsgain::CertifiedBounds whole = *obsgain::certify_bounds(arm, numeric, options);
   const std::string path = ::testing::TempDir() + "arm6_race.checkpoint";
   obsgain::CertifiedOptions stopped = options;
