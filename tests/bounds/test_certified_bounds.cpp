@@ -429,7 +429,8 @@ TEST(LipschitzRace, TheLowerUpperEndGoesOnAsOneSearchWould) {
   arm_numeric.L_scaled.q = arm_numeric.L_joint.q;
   obsgain::BoundReport pendubot_numeric = obsgain::compute_bounds(pendubot_model(), Eigen::Vector2d(10, 10));
   ASSERT_TRUE(pendubot_numeric.scaled());
-  for (const auto& [model, numeric, budget] : {std::tuple{&arm, &arm_numeric, 0.1}, {&pendubot_model(), &pendubot_numeric, 0.004}}) {
+  for (const auto& [model, numeric, budget] :
+       {std::tuple{&arm, &arm_numeric, 0.1}, {&pendubot_model(), &pendubot_numeric, 0.004}}) {
     obsgain::CertifiedOptions options;
     options.budget_seconds = budget;
     const obsgain::CertifiedBounds race = *obsgain::certify_bounds(*model, *numeric, options);

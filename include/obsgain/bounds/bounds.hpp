@@ -22,7 +22,7 @@ struct BoundOptions {
   int polish_starts = 3;                        // Ipopt starts: the global argmax plus the best sample points
   int samples_per_dimension = 64;               // sample points that seed the extra polish starts
   // Similarity scaling: the T that minimises L_T over the configurations the searches found worst is kept when its
-  // estimate is at least this fraction below L_joint's (its certified search then shares L_joint's budget).
+  // estimate is at least this fraction below L_joint's (its certified search then races L_joint's for the budget).
   // Up to scaling_max_dof joints (the certified search's limit: beyond it every round of the search is long and
   // nothing is proven). T is a full matrix up to full_scaling_max_dof joints: D does not commute with it, so its
   // proof bounds every saturation pattern apart (2ⁿ per velocity vertex); a diagonal T commutes with D, and one
