@@ -48,8 +48,9 @@ class BudgetShares {
 };
 
 // L_joint or L_T, searched in stages: `run` searches to the options' budget (from `options.resume` when given) and
-// hands over the state it stops in, from which a larger budget goes on exactly as one search with it from the start
-// would have; `finish` records a bracket as final in the checkpoint.
+// hands over the state it stops in (when given where), from which a larger budget goes on exactly as one search with
+// it from the start would have; `finish` records a bracket as final in the checkpoint, where its stage left it
+// unrecorded (journaled_search records a stage ended by anything but its budget).
 struct StagedSearch {
   std::function<BoundBracket(const BranchAndBoundOptions&, SearchState* stopped_in)> run;
   std::function<void(const BoundBracket&)> finish;
@@ -76,9 +77,8 @@ std::pair<BoundBracket, BoundBracket> race(const StagedSearch& joint, const Stag
   part.work_budget = whole - other.work;
   if (leader.stop == SearchStop::budget && leader.work < part.work_budget) {
     part.resume = scaled_leads ? &scaled_state : &joint_state;
-    SearchState end;
     const double seconds = leader.seconds;
-    leader = leading.run(part, &end);
+    leader = leading.run(part, nullptr);  // its last stage: the state it ends in is not needed
     leader.seconds += seconds;
   }
   leading.finish(leader);
@@ -148,7 +148,8 @@ std::optional<CertifiedBounds> certify_bounds(const Model& model, const BoundRep
                     b->value_work(), false);
     };
     staged.finish = [&options, name, request = search_request(model, V, options, scaling)](const BoundBracket& bracket) {
-      if (options.journal) options.journal->finish(name, request, bracket);
+      const bool unrecorded = bracket.stop == SearchStop::budget || bracket.stop == SearchStop::race;
+      if (options.journal && unrecorded) options.journal->finish(name, request, bracket);
     };
     return staged;
   };

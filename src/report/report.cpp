@@ -28,29 +28,32 @@ nlohmann::json bound_json(const BoundMaximum& m) {
   return j;
 }
 
-const char* stop_name(SearchStop stop) {
+// What ended a bracket's search: its name in the JSON, and for a person why ("" when the gap was reached).
+struct StopText {
+  const char* name;
+  const char* reason;
+};
+StopText stop_text(SearchStop stop) {
   switch (stop) {
-    case SearchStop::gap: return "gap";
-    case SearchStop::boxes: return "boxes";
-    case SearchStop::budget: return "budget";
-    case SearchStop::time: return "wall-clock limit";
-    case SearchStop::race: return "race";
+    case SearchStop::gap: return {"gap", ""};
+    case SearchStop::boxes: return {"boxes", "stopped by the box limit"};
+    case SearchStop::budget: return {"budget", "stopped by the budget, --bound-budget"};
+    case SearchStop::time: return {"wall-clock limit", "stopped by the wall-clock safety limit: may differ between runs"};
+    case SearchStop::race:
+      return {"race", "stopped after its first share: the other constant's upper end was lower"};
   }
-  return "";
+  return {"", ""};
 }
 
-// What ended a search, for the text report: nothing when the gap was reached.
+// The text report's note after a bracket: nothing when the gap was reached.
 std::string stop_note(SearchStop stop) {
-  if (stop == SearchStop::budget) return " (stopped by the budget, --bound-budget)";
-  if (stop == SearchStop::boxes) return " (stopped by the box limit)";
-  if (stop == SearchStop::time) return " (stopped by the wall-clock safety limit: may differ between runs)";
-  if (stop == SearchStop::race) return " (stopped after its first share: the other constant's upper end was lower)";
-  return "";
+  const std::string reason = stop_reason(stop);
+  return reason.empty() ? reason : " (" + reason + ")";
 }
 
 nlohmann::json bracket_json(const BoundBracket& b) {
   return {{"lower", b.lower},   {"upper", b.upper},          {"argmax_q", to_json(b.argmax)}, {"boxes", b.boxes},
-          {"work", b.work},     {"stop", stop_name(b.stop)}, {"seconds", b.seconds}};
+          {"work", b.work},     {"stop", stop_text(b.stop).name}, {"seconds", b.seconds}};
 }
 
 std::string where(const BoundMaximum& m) {
@@ -61,6 +64,8 @@ std::string where(const BoundMaximum& m) {
 }
 
 }  // namespace
+
+std::string stop_reason(SearchStop stop) { return stop_text(stop).reason; }
 
 std::string format_vector(const Eigen::VectorXd& v) {
   std::string s = "(";

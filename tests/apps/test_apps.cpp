@@ -323,6 +323,8 @@ TEST(DesignGainsApp, AnUnfinishedBoundSearchExitsOneAndSaysWhatWouldHelp) {
   const std::string html = read_text(out + "/report.html");
   EXPECT_NE(html.find("NOT CERTIFIED</span>: L_joint has no finite proven upper bound"), std::string::npos);
   EXPECT_EQ(html.find("Gains k1"), std::string::npos);
+  // The bounds table says what stopped the searches, as the text report does.
+  EXPECT_NE(html.find("<td>stopped by the budget, --bound-budget</td></tr>"), std::string::npos) << html;
 }
 
 // A proof far above the value attained is still a proof, but its cost is named: a warning gives the factor and what
@@ -382,7 +384,7 @@ TEST(DesignGainsApp, TheSameJsonForAnyThreadCountAndOnEveryRun) {
   };
   const nlohmann::json one = design(1);
   EXPECT_EQ(one["bounds"]["brackets"]["L_joint"]["stop"], "budget");  // the budget, not the gap, ended it
-  EXPECT_EQ(one["bounds"]["brackets"]["L_scaled"]["stop"], "race");  // L_joint's upper end was lower after a fifth each
+  EXPECT_EQ(one["bounds"]["brackets"]["L_scaled"]["stop"], "race");  // L_joint's upper end was lower after its share each
   EXPECT_EQ(one, design(2));
   EXPECT_EQ(one, design(2));
 }
@@ -434,6 +436,11 @@ TEST(VerifyBoundsApp, WritesTheReportWithCertifiedBrackets) {
   EXPECT_TRUE(report["comparison"].contains("paper"));
   const std::string html = read_text(out + "/report.html");
   EXPECT_GE(std::count(html.begin(), html.end(), '\n'), 50);
+  // Every search reached its gap, and the bounds table says so row by row (M0, B, L_joint and L_T).
+  std::size_t reached = 0;
+  for (auto at = html.find("<td>gap reached</td></tr>"); at != std::string::npos; at = html.find("<td>gap reached</td></tr>", at + 1))
+    ++reached;
+  EXPECT_EQ(reached, 4u);
   // The default design is the scaled one: the LMI line is its own check, not the tight certificate's.
   EXPECT_NE(html.find("The scaled certificate's LMI largest eigenvalue -"), std::string::npos);
   // Four plots inline; nothing loaded from outside (the SVG namespace URIs load nothing).

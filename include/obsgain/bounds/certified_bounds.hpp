@@ -31,7 +31,7 @@ struct CertifiedOptions {
   // L_joint and L_T (where the numeric search kept a similarity scaling) race for their part of the budget: each first
   // gets this share of it, then the one with the lower proven upper end, the one the design uses, goes on with the
   // rest (docs/theory.md, "The budget").
-  double race_share = 0.2;
+  double race_share = 0.1;
   int max_boxes = 2000000;      // per bound; reaching it leaves a wider (still valid) bracket
   int threads = 0;              // 0: all cores
   ProgressCallback progress;    // optional
