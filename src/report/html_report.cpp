@@ -333,7 +333,9 @@ std::string bounds_section(const VerificationReport& r) {
                       "exceed the suprema. The design uses the upper ends."
                     : "no certified bracket is available for this model, so the design rests on these lower estimates.")
     << "</p>\n"
-    << table(table_row({"constant", "lower (attained)", "upper (certified)", "gap", "argmax", "NLopt", "Ipopt", "boxes", "search"}, true) +
+    << table(table_row({"constant", "lower (attained)", "upper (certified)", "gap", "argmax", "NLopt", "Ipopt", "boxes",
+                        "search"},
+                       true) +
              bound_row(b, "M0 = sup ||M⁻¹||", b.M0, b.M0_bracket) + bound_row(b, "B = sup ||∂A/∂v||", b.B, b.B_bracket) +
              bound_row(b, "L_joint", b.L_joint, b.L_joint_bracket) +
              (b.scaled() ? bound_row(b, "L_T = sup ||T Φ T⁻¹||", b.L_scaled, b.L_scaled_bracket) : std::string()))

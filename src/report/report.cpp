@@ -38,7 +38,8 @@ StopText stop_text(SearchStop stop) {
     case SearchStop::gap: return {"gap", ""};
     case SearchStop::boxes: return {"boxes", "stopped by the box limit"};
     case SearchStop::budget: return {"budget", "stopped by the budget, --bound-budget"};
-    case SearchStop::time: return {"wall-clock limit", "stopped by the wall-clock safety limit: may differ between runs"};
+    case SearchStop::time:
+      return {"wall-clock limit", "stopped by the wall-clock safety limit: may differ between runs"};
     case SearchStop::race:
       return {"race", "stopped after its first share: the other constant's upper end was lower"};
   }

@@ -384,7 +384,8 @@ TEST(DesignGainsApp, TheSameJsonForAnyThreadCountAndOnEveryRun) {
   };
   const nlohmann::json one = design(1);
   EXPECT_EQ(one["bounds"]["brackets"]["L_joint"]["stop"], "budget");  // the budget, not the gap, ended it
-  EXPECT_EQ(one["bounds"]["brackets"]["L_scaled"]["stop"], "race");  // L_joint's upper end was lower after its share each
+  // L_joint's upper end was lower after its share each.
+  EXPECT_EQ(one["bounds"]["brackets"]["L_scaled"]["stop"], "race");
   EXPECT_EQ(one, design(2));
   EXPECT_EQ(one, design(2));
 }
@@ -437,9 +438,9 @@ TEST(VerifyBoundsApp, WritesTheReportWithCertifiedBrackets) {
   const std::string html = read_text(out + "/report.html");
   EXPECT_GE(std::count(html.begin(), html.end(), '\n'), 50);
   // Every search reached its gap, and the bounds table says so row by row (M0, B, L_joint and L_T).
+  const std::string reached_cell = "<td>gap reached</td></tr>";
   std::size_t reached = 0;
-  for (auto at = html.find("<td>gap reached</td></tr>"); at != std::string::npos; at = html.find("<td>gap reached</td></tr>", at + 1))
-    ++reached;
+  for (auto at = html.find(reached_cell); at != std::string::npos; at = html.find(reached_cell, at + 1)) ++reached;
   EXPECT_EQ(reached, 4u);
   // The default design is the scaled one: the LMI line is its own check, not the tight certificate's.
   EXPECT_NE(html.find("The scaled certificate's LMI largest eigenvalue -"), std::string::npos);

@@ -419,9 +419,9 @@ obsgain::BoundBracket one_search(const obsgain::Model& model, const obsgain::Bou
 }
 
 // L_joint and L_T race for 95 % of the budget (docs/theory.md, "The budget"): each first searches its share of it (a
-// tenth), then the one whose upper end is lower goes on with what the other left, and ends exactly as one search with
-// that budget from the start; the other stops at its share. Both ways: L_joint ahead (arm3 with a poor diagonal T) and L_T ahead
-// (the Pendubot's T halves its constant).
+// tenth), then the one whose upper end is lower goes on with what the other left, and ends exactly as one search
+// with that budget from the start; the other stops at its share. Both ways: L_joint ahead (arm3 with a poor diagonal
+// T) and L_T ahead (the Pendubot's T halves its constant).
 TEST(LipschitzRace, TheLowerUpperEndGoesOnAsOneSearchWould) {
   const obsgain::Model arm = obsgain::load_robot({examples + "/arm3.urdf"});
   obsgain::BoundReport arm_numeric = light_search(arm);
