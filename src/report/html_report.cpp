@@ -316,10 +316,11 @@ std::string bound_row(const BoundReport& b, const std::string& name, const Bound
   if (m.saturation_pattern.size()) where += ", D = diag" + format_vector(m.saturation_pattern);
   // Both ends to the same ten digits, so that they can be compared digit by digit.
   const auto digits = [](double x) { return fmt::format("{:.10g}", x); };
+  // The search's end beside the gap it explains (the argmax column is wide, and the table scrolls).
   return table_row({name, digits(b.certified ? k.lower : m.value), b.certified ? digits(k.upper) : "—",
-                    b.certified ? fmt::format("{:.1e}", (k.upper - k.lower) / k.upper) : "—", where,
-                    number(m.global_value), number(m.polish_value), b.certified ? std::to_string(k.boxes) : "—",
-                    !b.certified ? "—" : k.stop == SearchStop::gap ? "gap reached" : escape(stop_reason(k.stop))});
+                    b.certified ? fmt::format("{:.1e}", (k.upper - k.lower) / k.upper) : "—",
+                    !b.certified ? "—" : k.stop == SearchStop::gap ? "gap reached" : escape(stop_text(k.stop).name), where,
+                    number(m.global_value), number(m.polish_value), b.certified ? std::to_string(k.boxes) : "—"});
 }
 
 std::string bounds_section(const VerificationReport& r) {
@@ -333,16 +334,19 @@ std::string bounds_section(const VerificationReport& r) {
                       "exceed the suprema. The design uses the upper ends."
                     : "no certified bracket is available for this model, so the design rests on these lower estimates.")
     << "</p>\n"
-    << table(table_row({"constant", "lower (attained)", "upper (certified)", "gap", "argmax", "NLopt", "Ipopt", "boxes",
-                        "search"},
+    << table(table_row({"constant", "lower (attained)", "upper (certified)", "gap", "search", "argmax", "NLopt", "Ipopt",
+                        "boxes"},
                        true) +
              bound_row(b, "M0 = sup ||M⁻¹||", b.M0, b.M0_bracket) + bound_row(b, "B = sup ||∂A/∂v||", b.B, b.B_bracket) +
              bound_row(b, "L_joint", b.L_joint, b.L_joint_bracket) +
              (b.scaled() ? bound_row(b, "L_T = sup ||T Φ T⁻¹||", b.L_scaled, b.L_scaled_bracket) : std::string()))
     << "<p style='font-size:90%'><i>lower</i>: a value attained at a point (a lower bound of the "
        "supremum). <i>upper</i>: proven to be above the supremum over the whole joint domain. <i>gap</i>: "
-       "(upper − lower)/upper. <i>boxes</i>: interval boxes of joint positions the branch and bound examined; "
-       "<i>search</i>: whether it reached the gap target or what stopped it first. "
+       "(upper − lower)/upper. <i>search</i>: whether the search reached the gap target, or what stopped it first: "
+       "<i>budget</i> (--bound-budget), <i>boxes</i> (the box limit), <i>wall-clock limit</i> (the safety limit: the "
+       "bracket may differ between runs), or <i>race</i> (L_joint and L_T each searched a first share of their budget, "
+       "and the other's upper end was then lower). "
+       "<i>boxes</i>: interval boxes of joint positions the branch and bound examined. "
        "<i>NLopt</i>, <i>Ipopt</i>: the two optimisers' attained values.</p>\n"
     << "<p>||F|| = " << number(b.F_norm) << ", L_paper = M0 (B + ||F||) = " << number(b.L_paper)
     << ". The certificate uses L = " << number(d.selected().observer.L) << " ("

@@ -28,11 +28,26 @@ nlohmann::json bound_json(const BoundMaximum& m) {
   return j;
 }
 
-// What ended a bracket's search: its name in the JSON, and for a person why ("" when the gap was reached).
-struct StopText {
-  const char* name;
-  const char* reason;
-};
+// The text report's note after a bracket: nothing when the gap was reached.
+std::string stop_note(SearchStop stop) {
+  const std::string reason = stop_text(stop).reason;
+  return reason.empty() ? reason : " (" + reason + ")";
+}
+
+nlohmann::json bracket_json(const BoundBracket& b) {
+  return {{"lower", b.lower}, {"upper", b.upper}, {"argmax_q", to_json(b.argmax)}, {"boxes", b.boxes},
+          {"work", b.work},   {"stop", stop_text(b.stop).name}, {"seconds", b.seconds}};
+}
+
+std::string where(const BoundMaximum& m) {
+  std::string s = "q = " + format_vector(m.q);
+  if (m.velocity_vertex.size()) s += ", v = " + format_vector(m.velocity_vertex);
+  if (m.saturation_pattern.size()) s += ", D = diag" + format_vector(m.saturation_pattern);
+  return s;
+}
+
+}  // namespace
+
 StopText stop_text(SearchStop stop) {
   switch (stop) {
     case SearchStop::gap: return {"gap", ""};
@@ -45,28 +60,6 @@ StopText stop_text(SearchStop stop) {
   }
   return {"", ""};
 }
-
-// The text report's note after a bracket: nothing when the gap was reached.
-std::string stop_note(SearchStop stop) {
-  const std::string reason = stop_reason(stop);
-  return reason.empty() ? reason : " (" + reason + ")";
-}
-
-nlohmann::json bracket_json(const BoundBracket& b) {
-  return {{"lower", b.lower},   {"upper", b.upper},          {"argmax_q", to_json(b.argmax)}, {"boxes", b.boxes},
-          {"work", b.work},     {"stop", stop_text(b.stop).name}, {"seconds", b.seconds}};
-}
-
-std::string where(const BoundMaximum& m) {
-  std::string s = "q = " + format_vector(m.q);
-  if (m.velocity_vertex.size()) s += ", v = " + format_vector(m.velocity_vertex);
-  if (m.saturation_pattern.size()) s += ", D = diag" + format_vector(m.saturation_pattern);
-  return s;
-}
-
-}  // namespace
-
-std::string stop_reason(SearchStop stop) { return stop_text(stop).reason; }
 
 std::string format_vector(const Eigen::VectorXd& v) {
   std::string s = "(";

@@ -18,9 +18,13 @@ std::string to_json_text(const DeployedDesign& design);
 std::string to_json_text(const MonteCarloReport& report);
 std::string to_json_text(const VerificationReport& report);
 
-// What ended a certified bracket's search, for a person: "" when the gap was reached, else why it stopped short
-// ("stopped by the budget, --bound-budget", ...). The text and HTML reports both show it.
-std::string stop_reason(SearchStop stop);
+// What ended a certified bracket's search: its name in the JSON and the HTML table ("gap", "budget", "race", ...),
+// and for a person why it stopped short ("stopped by the budget, --bound-budget", ...; "" when the gap was reached).
+struct StopText {
+  const char* name;
+  const char* reason;
+};
+StopText stop_text(SearchStop stop);
 
 // "(1, 2.5)": vectors in the human reports.
 std::string format_vector(const Eigen::VectorXd& v);
