@@ -63,15 +63,51 @@ double inertia_lower(double floor, const BoxForms& d, std::vector<double>* weigh
 }
 
 // Where M⁻¹ cannot be enclosed (a box too wide for the Neumann series): ||M⁻¹(J D + F)|| <= (||J|| + ||F||) / λmin(M),
-// finite once M is proven positive definite on the box.
-BoxBound lipschitz_by_inertia_floor(const Model& model, double floor, const BoxForms& d,
-                                    const std::vector<TaylorMatrix>& J, const Eigen::MatrixXd& vertices, unsigned first,
-                                    unsigned count) {
+// finite once M is proven positive definite on the box (`friction`: ||F|| rounded up; `vertices`: the velocity
+// vertices to take, J's combinations).
+BoxBound lipschitz_by_inertia_floor(const TaylorMatrix& M, double floor, const std::vector<TaylorMatrix>& J,
+                                    double friction, const BoxForms& d, const Eigen::MatrixXd& vertices) {
   BoxBound bound{kInfinity, {}};
-  const double lambda = inertia_lower(floor, d, &bound.split_weight);
+  weigh_sides(M, d, bound.split_weight);
+  const double lambda = std::max(smallest_eigenvalue_lower(M), floor);
   if (!(lambda > 0.0)) return bound;
-  const double J_norm = largest_combination_frobenius_upper(J, vertices.middleCols(first, count - first));
-  bound.upper = ((Interval(J_norm) + Interval(spectral_norm_upper(model.friction))) / Interval(lambda)).upper();
+  const double J_norm = largest_combination_frobenius_upper(J, vertices);
+  bound.upper = ((Interval(J_norm) + Interval(friction)) / Interval(lambda)).upper();
+  return bound;
+}
+
+// diag(rows) X diag(columns), entry by entry as forms (each product's rounding in the form).
+std::vector<Taylor> scaled_forms(const std::vector<Taylor>& X, const Eigen::VectorXd& rows, const Eigen::VectorXd& columns) {
+  const Eigen::Index n = rows.size();
+  std::vector<Taylor> Y(X.size());
+  for (Eigen::Index i = 0; i < n; ++i)
+    for (Eigen::Index k = 0; k < n; ++k) Y[i * n + k] = rows(i) * (columns(k) * X[i * n + k]);
+  return Y;
+}
+
+// max_k a_k b_k, rounded up.
+double largest_product(const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
+  double largest = 0.0;
+  for (Eigen::Index k = 0; k < a.size(); ++k) largest = std::max(largest, (Interval(a(k)) * Interval(b(k))).upper());
+  return largest;
+}
+
+// The route of the inertia floor through G (bounds/box_bounds.hpp, FloorRoute); `J`: the unit Jacobians' forms
+// unscaled.
+BoxBound route_through(const Model& model, const FloorRoute& route, const BoxForms& d, const std::vector<TaylorMatrix>& J,
+                       const Eigen::MatrixXd& vertices) {
+  const bool plain = route.g.isOnes(0.0) && route.y.isOnes(0.0);
+  std::vector<TaylorMatrix> scaled_J;
+  if (!plain)
+    for (int j = 0; j < d.n; ++j)
+      scaled_J.push_back(taylor_matrix(scaled_forms(unit_jacobian(d, j), route.g, route.y).data(), d.n, d.n, d.symbols));
+  const TaylorMatrix M = plain ? taylor_matrix(d.M.data(), d.n, d.n, d.symbols)
+                               : taylor_matrix(scaled_forms(d.M, route.g, route.g).data(), d.n, d.n, d.symbols);
+  const double friction =
+      (Interval(spectral_norm_upper(model.friction)) * Interval(route.g.maxCoeff()) * Interval(route.y.maxCoeff())).upper();
+  BoxBound bound = lipschitz_by_inertia_floor(M, route.floor, plain ? J : scaled_J, friction, d, vertices);
+  if (!plain || !route.t.isOnes(0.0) || route.factor != 1.0)
+    bound.upper = (Interval(bound.upper) * Interval(largest_product(route.t, route.g)) * Interval(route.factor)).upper();
   return bound;
 }
 
@@ -81,30 +117,45 @@ BoxBound lipschitz_by_inertia_floor(const Model& model, double floor, const BoxF
 // its largest over the velocity vertices `W`: at least the centre's term alone, and at least its mean over the
 // vertices, a Rademacher sum whose mean norm is at least 1/√2 of its root mean square (the Khintchine–Kahane
 // inequality with Latała and Oleszkiewicz's constant), sqrt(Σ_j V_j² ||P_j||_F²). Where this is above a bound already
-// proven, the route could not win and is not taken (docs/theory.md, "M⁻¹ over a box"). A choice of work, not a bound:
-// computed in floating point.
-double inertia_route_at_least(double floor, const BoxForms& d, const std::vector<TaylorMatrix>& J, const Eigen::VectorXd& V,
-                              const Eigen::MatrixXd& W) {
+// proven, the route could not win and is not taken (docs/theory.md, "M⁻¹ over a box"). Through G: of G M G and
+// G J Y, times the route's factors. A choice of work, not a bound: computed in floating point.
+double route_at_least(const FloorRoute& route, const BoxForms& d, const std::vector<TaylorMatrix>& J,
+                      const Eigen::VectorXd& V, const Eigen::MatrixXd& W) {
+  const Eigen::MatrixXd G = route.g.asDiagonal(), Y = route.y.asDiagonal();
   Eigen::MatrixXd centre(d.n, d.n);
   for (int i = 0; i < d.n; ++i)
     for (int k = 0; k < d.n; ++k) centre(i, k) = 0.5 * (d.M[i * d.n + k].c + d.M[k * d.n + i].c);
-  const double lambda = std::max(Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(centre, Eigen::EigenvaluesOnly).eigenvalues()(0), floor);
+  const double lambda =
+      std::max(Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(G * centre * G, Eigen::EigenvaluesOnly).eigenvalues()(0), route.floor);
   if (!(lambda > 0.0)) return kInfinity;
   Eigen::MatrixXd C(d.n * d.n, d.n);
   double remainders = 0.0;
   for (int j = 0; j < d.n; ++j) {
-    C.col(j) = J[j].centre.reshaped();
-    remainders += V(j) * J[j].remainder;
+    C.col(j) = (G * J[j].centre * Y).reshaped();
+    remainders += V(j) * J[j].remainder * route.g.maxCoeff() * route.y.maxCoeff();
   }
   const Eigen::MatrixXd gram = C.transpose() * C;
   const double centres = std::sqrt((gram * W).cwiseProduct(W).colwise().sum().maxCoeff());
   double means = 0.0;
   for (int t = 0; t < J[0].parts(); ++t) {
     double squares = 0.0;
-    for (int j = 0; j < d.n; ++j) squares += V(j) * V(j) * J[j].part(t).squaredNorm();
+    for (int j = 0; j < d.n; ++j) squares += V(j) * V(j) * (G * J[j].part(t) * Y).squaredNorm();
     means += std::sqrt(0.5 * squares);
   }
-  return (remainders + std::max(centres, means)) / lambda;
+  return (remainders + std::max(centres, means)) / lambda * route.t.cwiseProduct(route.g).maxCoeff() * route.factor;
+}
+
+// The routes a bound takes (bounds/box_bounds.hpp, FloorRoute): L_joint ||Φ||'s; L_T ||Φ||'s times the stretch, and
+// for a diagonal T also through G = S = Y. (Through G = diag(a)^(-1/2) L_joint's route is lower on wide boxes, but
+// the search then ends higher: docs/theory.md, "M⁻¹ over a box".)
+std::vector<FloorRoute> floor_routes(const Model& model, double floor, const std::optional<Similarity>& scaling) {
+  const Eigen::VectorXd ones = Eigen::VectorXd::Ones(model.dof());
+  std::vector<FloorRoute> routes{{ones, ones, ones, floor, scaling ? scaling->stretch : 1.0}};
+  if (scaling && scaling->diagonal) {
+    const Eigen::VectorXd t = scaling->rows.diagonal(), s = scaling->columns.diagonal();
+    routes.push_back({s, t, s, similar_inertia_floor(model, floor, s)});
+  }
+  return routes;
 }
 
 // Column norms of A D + R term by term (the centre, each symbol's slope, each pair's curvature), with A's column j
@@ -245,6 +296,7 @@ BoxBounds::BoxBounds(const Model& model, const JointSearch& search, const Eigen:
       count_(static_cast<unsigned>(vertices_.cols())), half_(count_ / 2), frictionless_(model.friction.isZero(0.0)),
       inertia_floor_(inertia_floor(model)) {
   if (scaling.size()) scaling_ = similarity(scaling);
+  routes_ = floor_routes(model, inertia_floor_, scaling_);
 }
 
 double BoxBounds::value_work() const { return box_costs(model_.dof(), 0, frictionless_).point; }
@@ -283,11 +335,20 @@ struct LipschitzTerms {
   std::vector<TaylorMatrix> A;
   TaylorMatrix R;
   double tail = 0.0;
+  double similar_inputs = 0.0;  // with a diagonal T: sup ||T (J(w) D + F) Y|| over the box and every choice
 };
+
+// With a diagonal T: T U X Y = (T U T⁻¹)(T X Y), and ||T U T⁻¹|| <= ||T U Y|| · restore: T stays inside both factors
+// (tail_upper), at the price of two norm bounds.
+double similar_tail(const LipschitzTerms& t, const TaylorInverse& inverse_M, const Similarity& scaling, int symbols) {
+  const double tail = tail_upper(inverse_M, scaling.rows.diagonal(), scaling.columns.diagonal(), symbols);
+  return (Interval(tail) * Interval(scaling.restore) * Interval(t.similar_inputs)).upper();
+}
 
 // With a diagonal scaling, the terms are T A_j Y and T R Y. With a full one, D does not commute with T: the terms are
 // T A_j and T R Y, and each choice's T A(w) D is multiplied by Y on the right (similar_choices_upper). Either way
-// the tail's matrix is stretched by at most ||T|| ||Y||.
+// the tail's matrix is stretched by at most ||T|| ||Y||; a diagonal T also bounds it as ||T U T⁻¹|| ||T X Y||, which
+// does not pay the stretch where M varies in the directions T shrinks (docs/theory.md, "Similarity scaling").
 LipschitzTerms lipschitz_terms(const Model& model, const BoxForms& d, const std::vector<TaylorMatrix>& J,
                                const Eigen::VectorXd& velocity_bounds, const TaylorInverse& inverse_M,
                                const Similarity* scaling = nullptr) {
@@ -322,8 +383,11 @@ LipschitzTerms lipschitz_terms(const Model& model, const BoxForms& d, const std:
     t.R = sandwiched(scaling->rows, t.R, scaling->columns);
   }
   const UpwardRounding upward;
-  t.tail = (Interval(inverse_M.tail) * Interval(every_choice_upper(J, velocity_bounds, taylor_matrix(F.data(), d.n, d.n, d.symbols)))).upper();
+  const TaylorMatrix friction = taylor_matrix(F.data(), d.n, d.n, d.symbols);
+  t.tail = (Interval(inverse_M.tail) * Interval(every_choice_upper(J, velocity_bounds, friction))).upper();
   if (scaling) t.tail = (Interval(t.tail) * Interval(scaling->stretch)).upper();
+  if (diagonal)
+    t.similar_inputs = every_choice_upper(J, velocity_bounds, friction, scaling->rows.diagonal(), scaling->columns.diagonal());
   return t;
 }
 
@@ -519,6 +583,21 @@ double similar_choices_upper(const LipschitzTerms& t, const Eigen::MatrixXd& Y, 
 
 }  // namespace
 
+// Of the routes of the inertia floor, the one whose value it cannot go below is the lowest, and that value: the one
+// route a box takes (each route taken would count the work of one).
+std::pair<const FloorRoute*, double> BoxBounds::likeliest_route(const BoxForms& d, const std::vector<TaylorMatrix>& J) const {
+  std::pair<const FloorRoute*, double> best{nullptr, kInfinity};
+  for (const FloorRoute& route : routes_) {
+    const double least = route_at_least(route, d, J, velocity_bounds_, vertices_);
+    if (!best.first || least < best.second) best = {&route, least};
+  }
+  return best;
+}
+
+BoxBound BoxBounds::inertia_route(const FloorRoute& route, const BoxForms& d, const std::vector<TaylorMatrix>& J) const {
+  return route_through(model_, route, d, J, vertices_.middleCols(half_, count_ - half_));
+}
+
 // L_joint over a box. On a wide box the product M⁻¹ J carries both factors' remainders, and the inertia route
 // (||J|| + ||F||) / λmin(M) can be the tighter: where the cheap bound is far above the value attained, both are
 // taken.
@@ -531,22 +610,17 @@ BoxBound BoxBounds::joint_lipschitz(const std::vector<Interval>& box, double low
     bound.upper = (Interval(bound.upper) * Interval(scaling.restore)).upper();
     return bound;
   };
-  const auto by_inertia_floor = [&](const BoxForms& d, const std::vector<TaylorMatrix>& J) {
-    BoxBound bound = lipschitz_by_inertia_floor(model_, inertia_floor_, d, J, vertices_, half_, count_);
-    bound.upper = (Interval(bound.upper) * Interval(scaling.stretch)).upper();
-    return bound;
-  };
   const BoxForms d = box_forms(model_, search_, box, true);
   const std::vector<TaylorMatrix> J = unit_jacobians(d);
   const TaylorInverse inverse_M = inverse(d.M, d.n, d.symbols);
   const BoxCosts costs = box_costs(d.n, d.symbols, frictionless_);
   const double inertia_route_work = costs.refinement + costs.inertia_route;
   if (!inverse_M.proven) {
-    BoxBound bound = by_inertia_floor(d, J);
+    BoxBound bound = inertia_route(*likeliest_route(d, J).first, d, J);
     bound.work = costs.forms + costs.failed_inverse + inertia_route_work;
     return restored(std::move(bound));
   }
-  const LipschitzTerms t = lipschitz_terms(model_, d, J, velocity_bounds_, inverse_M, scaling_ ? &*scaling_ : nullptr);
+  LipschitzTerms t = lipschitz_terms(model_, d, J, velocity_bounds_, inverse_M, scaling_ ? &*scaling_ : nullptr);
   const UpwardRounding upward;
   const bool full = scaling_ && !scaling_->diagonal;
   // With a full T: ||(Σ w_j Ã_j D) Y + R̃||_F <= ||Σ w_j Ã_j D||_F ||Y||_F + ||R̃||_F.
@@ -554,7 +628,13 @@ BoxBound BoxBounds::joint_lipschitz(const std::vector<Interval>& box, double low
       full ? (Interval(every_choice_upper(t.A, velocity_bounds_, zero_like(t.R))) * Interval(scaling.columns.norm() * (1.0 + 1e-15)) +
               Interval(t.R.frobenius_upper())).upper()
            : every_choice_upper(t.A, velocity_bounds_, t.R);
-  BoxBound bound{every_choice + t.tail, {}, costs.forms + costs.products};
+  BoxBound bound{0.0, {}, costs.forms + costs.products};
+  // A diagonal T's tail with T inside, where the stretched one is a tenth of the bound or more.
+  if (scaling_ && scaling_->diagonal && t.tail > 0.1 * (every_choice + t.tail)) {
+    t.tail = std::min(t.tail, similar_tail(t, inverse_M, *scaling_, d.symbols));
+    bound.work += 2.0 * costs.refinement;
+  }
+  bound.upper = every_choice + t.tail;
   if (bound.upper <= lower) {  // cannot beat the value attained: no choice needs enumerating
     weigh_sides(linear_combination(t.A, velocity_bounds_, frobenius_uppers(t.A)), d, bound.split_weight);
     return restored(std::move(bound));
@@ -562,9 +642,9 @@ BoxBound BoxBounds::joint_lipschitz(const std::vector<Interval>& box, double low
   // The route of the inertia floor wins on wide boxes only (where M⁻¹'s series is loose): it is taken where the
   // bound is more than twice the value attained and the route could beat it.
   double cap = kInfinity;
-  if (bound.upper > 2.0 * lower &&
-      inertia_route_at_least(inertia_floor_, d, J, velocity_bounds_, vertices_) * scaling.stretch < bound.upper) {
-    BoxBound by_inertia = by_inertia_floor(d, J);
+  const auto route = bound.upper > 2.0 * lower ? likeliest_route(d, J) : std::pair<const FloorRoute*, double>{};
+  if (route.first && route.second < bound.upper) {
+    BoxBound by_inertia = inertia_route(*route.first, d, J);
     bound.work += inertia_route_work;
     if (by_inertia.upper <= lower) return restored({by_inertia.upper, std::move(by_inertia.split_weight), bound.work});
     cap = by_inertia.upper;

@@ -45,7 +45,7 @@ double inertia_floor(const Model& model) {
     return std::min(p->armature[0], p->armature[1]);  // π1π2 > π3² makes the rigid part positive definite
   const SerialChain& chain = std::get<SerialChain>(model.structure);
   const int n = chain.dof();
-  const Eigen::VectorXd a = chain.armature.size() == n ? chain.armature : Eigen::VectorXd::Zero(n);
+  const Eigen::VectorXd a = armature(model);
   // Each body's smallest principal moment, proven from below. Rounding in the lumped inertias may leave one a hair
   // below zero: a body's angular velocity has norm <= sqrt(n) |q'|, so such a deficit costs the floor at most n
   // times itself (doubled for safety).
@@ -60,6 +60,17 @@ double inertia_floor(const Model& model) {
                                     [](const ChainJoint& j) { return j.type == JointType::revolute; });
   const double floor = std::max(a.minCoeff(), revolute ? chain_floor(c, a) : 0.0);
   return std::max(0.0, (Interval(floor) - Interval(2.0 * n) * Interval(deficit)).lower());
+}
+
+double similar_inertia_floor(const Model& model, double floor, const Eigen::VectorXd& s) {
+  const Eigen::VectorXd a = armature(model);
+  double by_floor = kInfinity, by_armature = kInfinity;
+  for (Eigen::Index k = 0; k < s.size(); ++k) {
+    const Interval square = boost::numeric::square(Interval(s(k)));
+    by_floor = std::min(by_floor, (Interval(floor) * square).lower());
+    by_armature = std::min(by_armature, (Interval(a(k)) * square).lower());
+  }
+  return std::max(by_floor, by_armature);
 }
 
 }  // namespace obsgain

@@ -85,11 +85,13 @@ Eigen::MatrixXd TaylorMatrix::spread() const {
   return s;
 }
 
-double every_choice_upper(const std::vector<TaylorMatrix>& X, const Eigen::VectorXd& V, const TaylorMatrix& R) {
+double every_choice_upper(const std::vector<TaylorMatrix>& X, const Eigen::VectorXd& V, const TaylorMatrix& R,
+                          const Eigen::VectorXd& rows, const Eigen::VectorXd& columns) {
   const UpwardRounding upward;
   Eigen::MatrixXd E = R.centre.cwiseAbs() + R.spread();
   for (std::size_t j = 0; j < X.size(); ++j)
     E += std::abs(V(static_cast<Eigen::Index>(j))) * (X[j].centre.cwiseAbs() + X[j].spread());
+  if (rows.size()) E = rows.asDiagonal() * E * columns.asDiagonal();  // products of positive numbers, rounded up
   return frobenius(E);
 }
 
@@ -704,13 +706,27 @@ TaylorInverse inverse(const std::vector<Taylor>& M, int n, int symbols) {
   // c Kᵀ E³ (I + E)⁻¹ K = c (E K)ᵀ · E (I + E)⁻¹ · (E K), and ||E (I + E)⁻¹|| <= η / (1 - η) for the symmetric E: the
   // tail is c ||E K||² η / (1 - η), which sees that E K is small where M varies only in its heavy directions
   // (||E K|| <= η ||K||). ||E K|| = ||(E K)ᵀ|| = ||Kᵀ E|| for the symmetric E that every member of the forms is.
-  const std::vector<Taylor> KtE = left_multiply(K.transpose(), E, n);
-  const double EK_norm = inverse_norm_upper(taylor_matrix(KtE.data(), n, n, symbols));
+  result.KtE = left_multiply(K.transpose(), E, n);
+  const double EK_norm = inverse_norm_upper(taylor_matrix(result.KtE.data(), n, n, symbols));
   const UpwardRounding upward;
   const Interval e(eta);
   result.tail = (Interval(c) * Interval(EK_norm) * Interval(EK_norm) * e / (Interval(1.0) - e)).upper();
+  result.tail_factor = (Interval(c) * e / (Interval(1.0) - e)).upper();
   result.proven = true;
   return result;
+}
+
+double tail_upper(const TaylorInverse& inverse, const Eigen::VectorXd& a, const Eigen::VectorXd& b, int symbols) {
+  const int n = static_cast<int>(a.size());
+  const auto norm = [&](const Eigen::VectorXd& d) {
+    std::vector<Taylor> X(inverse.KtE.size());
+    for (int i = 0; i < n; ++i)
+      for (int k = 0; k < n; ++k) X[i * n + k] = d(i) * inverse.KtE[i * n + k];
+    return inverse_norm_upper(taylor_matrix(X.data(), n, n, symbols));
+  };
+  const double Ka = norm(a), Kb = norm(b);
+  const UpwardRounding upward;
+  return (Interval(inverse.tail_factor) * Interval(Ka) * Interval(Kb)).upper();
 }
 
 }  // namespace obsgain

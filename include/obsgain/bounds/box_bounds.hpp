@@ -13,6 +13,7 @@
 #include <Eigen/Dense>
 
 #include <optional>
+#include <utility>
 #include <vector>
 
 namespace obsgain {
@@ -45,6 +46,16 @@ struct Similarity {
   double stretch = 1.0;           // ||T|| ||Y||, rounded up: ||T X Y|| <= stretch ||X||
 };
 Similarity similarity(const Eigen::MatrixXd& T);
+
+// One way through the inertia floor, for a box too wide for M⁻¹'s series (docs/theory.md, "M⁻¹ over a box"): with
+// G = diag(g), g > 0, T = diag(t) and Y = diag(y), T Φ Y = (T G)(G M G)⁻¹(G (J(w) D + F) Y) (D commutes with Y), so
+// ||T Φ Y|| <= factor · max_k t_k g_k (||G J(w) Y|| + ||G F Y||) / λmin(G M G), with λmin(G M G) from its forms or
+// `floor`, proven for every q (bounds/inertia_floor.hpp). L_joint: t = y = 1.
+struct FloorRoute {
+  Eigen::VectorXd g, t, y;
+  double floor = 0.0;
+  double factor = 1.0;  // the stretch ||T|| ||Y||, where ||Φ||'s route (g = t = y = 1) bounds ||T Φ Y||
+};
 
 // Φ's terms over a box, for a proof that keeps them apart (certificate/polytopic_search.hpp): for every q in the box,
 // w in the velocity box and δ = D e_v, Φ e_v = −(A(w) δ + R e_v) − U (J(w) δ + F e_v) with A(w) = Σ_j w_j A_j and
@@ -93,6 +104,12 @@ class BoxBounds {
   bool frictionless_;
   double inertia_floor_;  // λmin(M(q)) >= it for every q (bounds/inertia_floor.hpp)
   std::optional<Similarity> scaling_;
+  std::vector<FloorRoute> routes_;
+
+  // The inertia floor's routes for a box too wide for M⁻¹'s series (box_bounds.cpp): the one likeliest to be lowest
+  // with a value it cannot go below, and its bound.
+  std::pair<const FloorRoute*, double> likeliest_route(const BoxForms& d, const std::vector<TaylorMatrix>& J) const;
+  BoxBound inertia_route(const FloorRoute& route, const BoxForms& d, const std::vector<TaylorMatrix>& J) const;
 };
 
 }  // namespace obsgain

@@ -9,4 +9,9 @@ namespace obsgain {
 
 double inertia_floor(const Model& model);
 
+// A proven lower bound of λmin(S M(q) S) for S = diag(s), s > 0, and every q, given `floor` <= λmin(M(q)):
+// M ≽ floor I gives floor min_k s_k², and M ≽ diag(armature) (the bodies' own part is positive semidefinite) gives
+// min_k a_k s_k². The route of the floor for L_T (bounds/box_bounds.cpp) rests on it.
+double similar_inertia_floor(const Model& model, double floor, const Eigen::VectorXd& s);
+
 }  // namespace obsgain

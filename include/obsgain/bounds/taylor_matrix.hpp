@@ -88,8 +88,10 @@ TaylorMatrix sandwiched(const Eigen::MatrixXd& L, const TaylorMatrix& X, const E
 
 // An upper bound of ||Σ_j w_j X_j D + R|| for every |w_j| <= V_j and diagonal D in [0, 1]ⁿ at once, from entry
 // moduli: Σ_j V_j |X_j| + |R| (each over the box) in Frobenius norm. No enumeration of vertices or patterns: the
-// cheap test that a box cannot beat a value attained elsewhere.
-double every_choice_upper(const std::vector<TaylorMatrix>& X, const Eigen::VectorXd& V, const TaylorMatrix& R);
+// cheap test that a box cannot beat a value attained elsewhere. With `rows` and `columns` (non-empty, positive), of
+// diag(rows) (Σ_j w_j X_j D + R) diag(columns) instead: the moduli scaled entry by entry.
+double every_choice_upper(const std::vector<TaylorMatrix>& X, const Eigen::VectorXd& V, const TaylorMatrix& R,
+                          const Eigen::VectorXd& rows = {}, const Eigen::VectorXd& columns = {});
 
 // Proven bounds over the box. `floor`: the caller only needs to know whether the bound exceeds it; once a cheap
 // bound is below it, the finer ones are skipped (the value returned is then still an upper bound).
@@ -106,8 +108,17 @@ struct TaylorInverse {
   std::vector<Taylor> entries;
   double tail = 0.0;
   bool proven = false;
+  // The tail's factors, for tail_upper: Kᵀ E as forms, and c η / (1 - η).
+  std::vector<Taylor> KtE;
+  double tail_factor = 0.0;
 };
 TaylorInverse inverse(const std::vector<Taylor>& M, int n, int symbols);
+
+// An upper bound of ||diag(a) U diag(b)|| for the tail U = c (E K)ᵀ E (I + E)⁻¹ (E K) of a proven inverse:
+// c η / (1 - η) ||diag(a) Kᵀ E|| ||diag(b) Kᵀ E||, two norm bounds of n x n forms. For a similarity T = diag(a),
+// b ≈ 1/a, it keeps T inside the tail instead of multiplying the tail by ||T|| ||T⁻¹|| (docs/theory.md, "Similarity
+// scaling"; bounding the two norms part by part in Frobenius norm instead, cheaper, was measured and not kept).
+double tail_upper(const TaylorInverse& inverse, const Eigen::VectorXd& a, const Eigen::VectorXd& b, int symbols);
 
 // Row-major products of forms: (rows x inner) by (inner x cols), rounding included in the forms.
 std::vector<Taylor> product(const std::vector<Taylor>& A, const std::vector<Taylor>& B, int rows, int inner, int cols);
