@@ -583,8 +583,8 @@ double similar_choices_upper(const LipschitzTerms& t, const Eigen::MatrixXd& Y, 
 
 }  // namespace
 
-// Of the routes of the inertia floor, the one whose value it cannot go below is the lowest, and that value: the one
-// route a box takes (each route taken would count the work of one).
+// Of the routes of the inertia floor, the one with the lowest value it cannot go below, and that value: the one route
+// a box takes (each route taken would count the work of one).
 std::pair<const FloorRoute*, double> BoxBounds::likeliest_route(const BoxForms& d, const std::vector<TaylorMatrix>& J) const {
   std::pair<const FloorRoute*, double> best{nullptr, kInfinity};
   for (const FloorRoute& route : routes_) {

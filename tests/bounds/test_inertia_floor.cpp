@@ -171,8 +171,8 @@ TEST(InertiaFloor, L_jointOverABoxIsNeverAboveTheFloorsRoute) {
   }
 }
 
-// The diagonal scaling the numeric search keeps on the UR5 with armature 0.6/0.2 (docs/robots.md), and the boxes of
-// half-width `radius` in its five searched joints around L_T's numeric maximiser.
+// The diagonal scaling the numeric search keeps on the UR5 with armature 0.6/0.2 (design-gains prints it), and the
+// boxes of half-width `radius` in its five searched joints around L_T's numeric maximiser.
 const Eigen::VectorXd ur5_scaling = (Eigen::VectorXd(6) << 1.0, 1.41517, 1.48913, 0.694743, 0.673392, 0.518903).finished();
 std::vector<obsgain::Interval> around_ur5_maximiser(double radius) {
   const double centre[5] = {-1.86317, -0.347491, 0.305476, -2.33335, 0.152026};

@@ -50,7 +50,7 @@ Similarity similarity(const Eigen::MatrixXd& T);
 // One way through the inertia floor, for a box too wide for M⁻¹'s series (docs/theory.md, "M⁻¹ over a box"): with
 // G = diag(g), g > 0, T = diag(t) and Y = diag(y), T Φ Y = (T G)(G M G)⁻¹(G (J(w) D + F) Y) (D commutes with Y), so
 // ||T Φ Y|| <= factor · max_k t_k g_k (||G J(w) Y|| + ||G F Y||) / λmin(G M G), with λmin(G M G) from its forms or
-// `floor`, proven for every q (bounds/inertia_floor.hpp). L_joint: t = y = 1.
+// `floor`, proven for every q (bounds/inertia_floor.hpp). ||Φ||'s own route: g = t = y = 1.
 struct FloorRoute {
   Eigen::VectorXd g, t, y;
   double floor = 0.0;
