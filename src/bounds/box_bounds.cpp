@@ -56,9 +56,8 @@ void weigh_sides(const TaylorMatrix& X, const BoxForms& d, std::vector<double>& 
 
 // A proven lower bound of λmin(M) over the box (the model's inertia floor, bounds/inertia_floor.hpp, where that is
 // higher).
-double inertia_lower(double floor, const BoxForms& d, std::vector<double>* weights) {
-  const TaylorMatrix M = taylor_matrix(d.M.data(), d.n, d.n, d.symbols);
-  if (weights) weigh_sides(M, d, *weights);
+double inertia_lower(const TaylorMatrix& M, double floor, const BoxForms& d, std::vector<double>& weights) {
+  weigh_sides(M, d, weights);
   return std::max(smallest_eigenvalue_lower(M), floor);
 }
 
@@ -68,8 +67,7 @@ double inertia_lower(double floor, const BoxForms& d, std::vector<double>* weigh
 BoxBound lipschitz_by_inertia_floor(const TaylorMatrix& M, double floor, const std::vector<TaylorMatrix>& J,
                                     double friction, const BoxForms& d, const Eigen::MatrixXd& vertices) {
   BoxBound bound{kInfinity, {}};
-  weigh_sides(M, d, bound.split_weight);
-  const double lambda = std::max(smallest_eigenvalue_lower(M), floor);
+  const double lambda = inertia_lower(M, floor, d, bound.split_weight);
   if (!(lambda > 0.0)) return bound;
   const double J_norm = largest_combination_frobenius_upper(J, vertices);
   bound.upper = ((Interval(J_norm) + Interval(friction)) / Interval(lambda)).upper();
@@ -96,15 +94,15 @@ double largest_product(const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
 // unscaled.
 BoxBound route_through(const Model& model, const FloorRoute& route, const BoxForms& d, const std::vector<TaylorMatrix>& J,
                        const Eigen::MatrixXd& vertices) {
-  const bool plain = route.g.isOnes(0.0) && route.y.isOnes(0.0);
+  const bool plain = route.g.isOnes(0.0);
   std::vector<TaylorMatrix> scaled_J;
   if (!plain)
     for (int j = 0; j < d.n; ++j)
-      scaled_J.push_back(taylor_matrix(scaled_forms(unit_jacobian(d, j), route.g, route.y).data(), d.n, d.n, d.symbols));
+      scaled_J.push_back(taylor_matrix(scaled_forms(unit_jacobian(d, j), route.g, route.g).data(), d.n, d.n, d.symbols));
   const TaylorMatrix M = plain ? taylor_matrix(d.M.data(), d.n, d.n, d.symbols)
                                : taylor_matrix(scaled_forms(d.M, route.g, route.g).data(), d.n, d.n, d.symbols);
   const double friction =
-      (Interval(spectral_norm_upper(model.friction)) * Interval(route.g.maxCoeff()) * Interval(route.y.maxCoeff())).upper();
+      (Interval(spectral_norm_upper(model.friction)) * Interval(route.g.maxCoeff()) * Interval(route.g.maxCoeff())).upper();
   BoxBound bound = lipschitz_by_inertia_floor(M, route.floor, plain ? J : scaled_J, friction, d, vertices);
   if (!plain || !route.t.isOnes(0.0) || route.factor != 1.0)
     bound.upper = (Interval(bound.upper) * Interval(largest_product(route.t, route.g)) * Interval(route.factor)).upper();
@@ -118,10 +116,10 @@ BoxBound route_through(const Model& model, const FloorRoute& route, const BoxFor
 // vertices, a Rademacher sum whose mean norm is at least 1/√2 of its root mean square (the Khintchine–Kahane
 // inequality with Latała and Oleszkiewicz's constant), sqrt(Σ_j V_j² ||P_j||_F²). Where this is above a bound already
 // proven, the route could not win and is not taken (docs/theory.md, "M⁻¹ over a box"). Through G: of G M G and
-// G J Y, times the route's factors. A choice of work, not a bound: computed in floating point.
+// G J G, times the route's factors. A choice of work, not a bound: computed in floating point.
 double route_at_least(const FloorRoute& route, const BoxForms& d, const std::vector<TaylorMatrix>& J,
                       const Eigen::VectorXd& V, const Eigen::MatrixXd& W) {
-  const Eigen::MatrixXd G = route.g.asDiagonal(), Y = route.y.asDiagonal();
+  const Eigen::MatrixXd G = route.g.asDiagonal();
   Eigen::MatrixXd centre(d.n, d.n);
   for (int i = 0; i < d.n; ++i)
     for (int k = 0; k < d.n; ++k) centre(i, k) = 0.5 * (d.M[i * d.n + k].c + d.M[k * d.n + i].c);
@@ -131,15 +129,15 @@ double route_at_least(const FloorRoute& route, const BoxForms& d, const std::vec
   Eigen::MatrixXd C(d.n * d.n, d.n);
   double remainders = 0.0;
   for (int j = 0; j < d.n; ++j) {
-    C.col(j) = (G * J[j].centre * Y).reshaped();
-    remainders += V(j) * J[j].remainder * route.g.maxCoeff() * route.y.maxCoeff();
+    C.col(j) = (G * J[j].centre * G).reshaped();
+    remainders += V(j) * J[j].remainder * route.g.maxCoeff() * route.g.maxCoeff();
   }
   const Eigen::MatrixXd gram = C.transpose() * C;
   const double centres = std::sqrt((gram * W).cwiseProduct(W).colwise().sum().maxCoeff());
   double means = 0.0;
   for (int t = 0; t < J[0].parts(); ++t) {
     double squares = 0.0;
-    for (int j = 0; j < d.n; ++j) squares += V(j) * V(j) * (G * J[j].part(t) * Y).squaredNorm();
+    for (int j = 0; j < d.n; ++j) squares += V(j) * V(j) * (G * J[j].part(t) * G).squaredNorm();
     means += std::sqrt(0.5 * squares);
   }
   return (remainders + std::max(centres, means)) / lambda * route.t.cwiseProduct(route.g).maxCoeff() * route.factor;
@@ -150,10 +148,10 @@ double route_at_least(const FloorRoute& route, const BoxForms& d, const std::vec
 // the search then ends higher: docs/theory.md, "M⁻¹ over a box".)
 std::vector<FloorRoute> floor_routes(const Model& model, double floor, const std::optional<Similarity>& scaling) {
   const Eigen::VectorXd ones = Eigen::VectorXd::Ones(model.dof());
-  std::vector<FloorRoute> routes{{ones, ones, ones, floor, scaling ? scaling->stretch : 1.0}};
+  std::vector<FloorRoute> routes{{ones, ones, floor, scaling ? scaling->stretch : 1.0}};
   if (scaling && scaling->diagonal) {
     const Eigen::VectorXd t = scaling->rows.diagonal(), s = scaling->columns.diagonal();
-    routes.push_back({s, t, s, similar_inertia_floor(model, floor, s)});
+    routes.push_back({s, t, similar_inertia_floor(model, floor, s)});
   }
   return routes;
 }
@@ -305,7 +303,7 @@ BoxBound BoxBounds::inverse_inertia(const std::vector<Interval>& box) const {
   const BoxForms d = box_forms(model_, search_, box, false);
   const BoxCosts costs = box_costs(d.n, d.symbols, frictionless_);
   BoxBound bound{kInfinity, {}, costs.inertia + costs.refinement};
-  const double lambda = inertia_lower(inertia_floor_, d, &bound.split_weight);
+  const double lambda = inertia_lower(taylor_matrix(d.M.data(), d.n, d.n, d.symbols), inertia_floor_, d, bound.split_weight);
   if (lambda > 0.0) bound.upper = (Interval(1.0) / Interval(lambda)).upper();
   return bound;
 }
@@ -616,7 +614,7 @@ BoxBound BoxBounds::joint_lipschitz(const std::vector<Interval>& box, double low
   const BoxCosts costs = box_costs(d.n, d.symbols, frictionless_);
   const double inertia_route_work = costs.refinement + costs.inertia_route;
   if (!inverse_M.proven) {
-    BoxBound bound = inertia_route(*likeliest_route(d, J).first, d, J);
+    BoxBound bound = inertia_route(routes_.size() == 1 ? routes_.front() : *likeliest_route(d, J).first, d, J);
     bound.work = costs.forms + costs.failed_inverse + inertia_route_work;
     return restored(std::move(bound));
   }

@@ -48,13 +48,14 @@ struct Similarity {
 Similarity similarity(const Eigen::MatrixXd& T);
 
 // One way through the inertia floor, for a box too wide for M⁻¹'s series (docs/theory.md, "M⁻¹ over a box"): with
-// G = diag(g), g > 0, T = diag(t) and Y = diag(y), T Φ Y = (T G)(G M G)⁻¹(G (J(w) D + F) Y) (D commutes with Y), so
-// ||T Φ Y|| <= factor · max_k t_k g_k (||G J(w) Y|| + ||G F Y||) / λmin(G M G), with λmin(G M G) from its forms or
-// `floor`, proven for every q (bounds/inertia_floor.hpp). ||Φ||'s own route: g = t = y = 1.
+// G = diag(g), g > 0, and T = diag(t), T Φ G = (T G)(G M G)⁻¹(G (J(w) D + F) G) (D commutes with G), so
+// ||T Φ G|| <= factor · max_k t_k g_k (||G J(w) G|| + ||G F G||) / λmin(G M G), with λmin(G M G) from its forms or
+// `floor`, proven for every q (bounds/inertia_floor.hpp). ||Φ||'s own route: g = t = 1. L_T's bound is of ||T Φ Y||
+// with Y = diag(s) (Similarity): its routes are ||Φ||'s times the stretch, and G = Y.
 struct FloorRoute {
-  Eigen::VectorXd g, t, y;
+  Eigen::VectorXd g, t;
   double floor = 0.0;
-  double factor = 1.0;  // the stretch ||T|| ||Y||, where ||Φ||'s route (g = t = y = 1) bounds ||T Φ Y||
+  double factor = 1.0;  // the stretch ||T|| ||Y||, where ||Φ||'s route (g = t = 1) bounds ||T Φ Y||
 };
 
 // Φ's terms over a box, for a proof that keeps them apart (certificate/polytopic_search.hpp): for every q in the box,
