@@ -126,8 +126,9 @@ double inertia_route(const obsgain::Model& model, const obsgain::JointSearch& se
 TEST(InertiaFloor, L_jointOverABoxIsNeverAboveTheFloorsRoute) {
   // The route is taken only where a value it cannot go below, from the forms' centres, is under the bound already
   // proven (bounds/box_bounds.cpp, inertia_route_at_least); so a box's bound is never above the route's, at every box.
-  // On the iiwa around q = 0.3 in every searched joint, ±0.3: M⁻¹'s series holds but is loose, and the route gives the
-  // box's bound; ±0.1: the series wins by a factor of 4.
+  // On the iiwa around q = 0.3 in every searched joint, ±0.4: M⁻¹'s series holds but is loose, and the route gives the
+  // box's bound; ±0.1: the series wins by a factor of 4 (±0.3: 18.27 against 30.43, since the sixteenth round's Gram
+  // bound of ||E||).
   const obsgain::Model iiwa = obsgain::load_robot({examples + "/iiwa14.urdf"});
   const obsgain::JointSearch search = obsgain::joint_search(iiwa, obsgain::configuration_joints(iiwa));
   const obsgain::BoxBounds bounds(iiwa, search, iiwa.velocity_bounds);
@@ -141,7 +142,7 @@ TEST(InertiaFloor, L_jointOverABoxIsNeverAboveTheFloorsRoute) {
     return box;
   };
   const Eigen::VectorXd middle = Eigen::VectorXd::Constant(static_cast<Eigen::Index>(search.domain.size()), 0.3);
-  const std::vector<obsgain::Interval> wide = around(middle, 0.3), narrow = around(middle, 0.1);
+  const std::vector<obsgain::Interval> wide = around(middle, 0.4), narrow = around(middle, 0.1);
   const obsgain::BoxForms d = obsgain::box_forms(iiwa, search, wide, true);
   ASSERT_TRUE(obsgain::inverse(d.M, d.n, d.symbols).proven);  // the series route exists on the wide box too
   const double wide_route = inertia_route(iiwa, search, wide);

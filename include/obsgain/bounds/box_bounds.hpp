@@ -28,6 +28,7 @@ struct BoxCosts {
   double failed_inverse;  // M⁻¹ attempted on a box too wide for it
   double vertex;      // one velocity vertex's A(w) and its envelope (`symbols` then counts the velocity's too)
   double refinement;  // one fine norm or eigenvalue bound of an n x n form
+  double gram;        // one norm bound of an n x n form from its parts' Gram matrix (M⁻¹'s series takes two)
   double choice;      // one pattern's cheap bound, or a centre's Cholesky test
   double point;       // the value attained at a point (every vertex and pattern, in double)
   double jacobian_vertex;  // one vertex's J(w) = Σ_j w_j J_j and its cheap bound (B's search)
