@@ -125,7 +125,7 @@ double inertia_route(const obsgain::Model& model, const obsgain::JointSearch& se
 
 TEST(InertiaFloor, L_jointOverABoxIsNeverAboveTheFloorsRoute) {
   // The route is taken only where a value it cannot go below, from the forms' centres, is under the bound already
-  // proven (bounds/box_bounds.cpp, inertia_route_at_least); so a box's bound is never above the route's, at every box.
+  // proven (bounds/box_bounds.cpp, route_at_least); so a box's bound is never above the route's, at every box.
   // On the iiwa around q = 0.3 in every searched joint, ±0.4: M⁻¹'s series holds but is loose, and the route gives the
   // box's bound; ±0.1: the series wins by a factor of 4 (±0.3: 18.27 against 30.43, since the sixteenth round's Gram
   // bound of ||E||).
