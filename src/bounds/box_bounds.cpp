@@ -240,22 +240,26 @@ BoxCosts box_costs(int n, int symbols, bool frictionless) {
   // the inertia floor's route refitted in the seventh round of issue 18, after they became faster, the forms and the
   // products scaled in the eighth by how much faster they then became against the seventh's code on one machine, the
   // vertex step in the eleventh by 0.85 (its time against the tenth's code at the same boxes on one machine: 0.79-0.84
-  // on arm6, arm7 and the iiwa, 0.86-0.90 on the Panda), the Gram bound in the sixteenth on random forms of 2-7 rows
-  // and 2-12 symbols, scaled by the fine norm bound's time there against its count (1.9); the inertia step is an
-  // older fit's). The count runs a quarter ahead of that, so that a default design, whose numeric search comes first,
-  // ends within its budget on every arm measured (docs/theory.md, "The budget"). `terms`: a Taylor matrix's n x n
-  // parts (centre, slopes, curvatures).
+  // on arm6, arm7 and the iiwa, 0.86-0.90 on the Panda), the Gram bound in the sixteenth and E²'s cubic terms in the
+  // seventeenth on random forms of 2-7 rows and 2-12 symbols, scaled by the time of a box there against its count
+  // (1.9); the inertia step is an older fit's). The count runs a quarter ahead of that, so that a default design, whose
+  // numeric search comes first, ends within its budget on every arm measured (docs/theory.md, "The budget"). `terms`:
+  // a Taylor matrix's n x n parts (centre, slopes, curvatures).
   constexpr double ahead = 1.25;
   const double n1 = n, n2 = n1 * n1, n3 = n2 * n1, s = symbols, terms = 1.0 + s + pair_count(symbols);
   const double vertices = std::ldexp(1.0, frictionless ? n - 1 : n);
   const double gram = ahead * (0.27e-6 + 0.057e-9 * n2 * terms * terms);
-  const double products = ahead * (14.45e-6 + 14.45e-9 * n2 * n2 * s) + 2.0 * gram;
+  const double refinement = ahead * (0.86e-6 + 3.45e-9 * n2 * terms);
+  // E²'s cubic terms monomial by monomial: s pair_count(s) n³ multiplications, twice, and s pair_count(s) sums.
+  const double sp = s * pair_count(symbols), cubic = ahead * (0.33e-6 + 0.192e-9 * sp * n3 + 12.6e-9 * sp);
+  // The products' fit included two fine norm bounds (of η and ||E K||), which inverse_norm_upper no longer takes.
+  const double products = ahead * (14.45e-6 + 14.45e-9 * n2 * n2 * s) + 2.0 * (gram - refinement);
   return {.inertia = 0.75e-6 * n3,
           .forms = ahead * (12.4e-6 + 0.76e-6 * n3 * (1.0 + 0.047 * s)),
-          .products = products,
+          .products = products + cubic,
           .failed_inverse = 0.3 * products,
           .vertex = ahead * (0.33e-6 + 2.3e-9 * n2 * terms),
-          .refinement = ahead * (0.86e-6 + 3.45e-9 * n2 * terms),
+          .refinement = refinement,
           .gram = gram,
           .choice = ahead * (0.026e-6 + 2.45e-9 * n1 * terms),
           .point = ahead * (1.9e-6 + 2.8e-9 * vertices * n3),

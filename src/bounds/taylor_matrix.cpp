@@ -571,17 +571,61 @@ int symbols_of(const std::vector<Taylor>& X) {
   return symbols;
 }
 
+// The cubic monomials ε_i ε_j ε_l (i <= j <= l) of m symbols, ordered by l and then by the pair (i, j) in kPairs'
+// order: those of the first m symbols are the first m (m + 1) (m + 2) / 6.
+int triple_index(int k, int first, int second) {
+  int t[3] = {k, first, second};
+  std::sort(t, t + 3);
+  return t[2] * (t[2] + 1) * (t[2] + 2) / 6 + kPairs.index[t[0]][t[1]];
+}
+
+// An entrywise bound of the cubic part of A B, Σ_(k,p) ε_k μ_p (A_k B_p + A_p B_k) (slopes by curvatures, μ_p the
+// pair's monomial): each cubic monomial's coefficient matrix is formed, and their moduli summed. Where the inner sums
+// cancel, this is below the products of the entries' sizes, Σ_m Σ_k |a_imk| Σ_p |b_mjp| (E² in M⁻¹'s series on the
+// iiwa 14's worst open box after the sixteenth round: its bound of L_joint 8.73 -> 8.41; docs/theory.md, "Cubic terms
+// of a product"). Every
+// product a_imk b_mjp enters one coefficient, of at most 6 · inner of them (a monomial ε_i ε_j ε_l is reached from
+// three slopes, each by both orders): their rounding is within γ_(6 inner) (|A|_1 |B|_2 + |A|_2 |B|_1), and their
+// underflow within 2⁻¹⁰⁷⁴ each.
+Eigen::MatrixXd cubic_upper(const CoefficientMatrices& a, const CoefficientMatrices& b, int symbols) {
+  const auto rows = a.X.centre.rows(), inner = a.X.centre.cols(), cols = b.X.centre.cols();
+  const int pairs = pair_count(symbols);
+  Eigen::MatrixXd stacked_b(inner, cols * pairs), stacked_a(rows * pairs, inner);
+  for (int p = 0; p < pairs; ++p) {
+    stacked_b.middleCols(p * cols, cols) = b.X.part(1 + symbols + p);
+    stacked_a.middleRows(p * rows, rows) = a.X.part(1 + symbols + p);
+  }
+  std::vector<Eigen::MatrixXd> monomials(static_cast<std::size_t>(symbols * (symbols + 1) * (symbols + 2) / 6),
+                                         Eigen::MatrixXd::Zero(rows, cols));
+  Eigen::MatrixXd slope_first, slope_second;
+  for (int k = 0; k < symbols; ++k) {
+    slope_first.noalias() = a.X.part(1 + k) * stacked_b;   // A_k B_p, side by side
+    slope_second.noalias() = stacked_a * b.X.part(1 + k);  // A_p B_k, one above the other
+    for (int p = 0; p < pairs; ++p)
+      monomials[static_cast<std::size_t>(triple_index(k, kPairs.first[p], kPairs.second[p]))] +=
+          slope_first.middleCols(p * cols, cols) + slope_second.middleRows(p * rows, rows);
+  }
+  const UpwardRounding upward;
+  Eigen::MatrixXd cubic = gamma(6 * static_cast<int>(inner)) * (a.linear * b.quadratic + a.quadratic * b.linear);
+  for (const Eigen::MatrixXd& m : monomials) cubic += m.cwiseAbs();
+  return cubic.array() + std::ldexp(6.0 * static_cast<double>(inner * monomials.size()), -1074);
+}
+
 }  // namespace
 
 // The coefficients of every entry at once, as matrix products: C_0 = A_0 B_0, C_k = A_0 B_k + A_k B_0, C_kl = A_0 B_kl +
-// A_kl B_0 + A_k B_l + A_l B_k (A_k B_k on the diagonal); the cubic and quartic terms and every product with a
-// remainder bounded as one form's product does (operator*), by products of the entries' sizes rounded upward. Each
-// coefficient of an entry is a sum of at most 4 · inner products of one term of A and one of B, each product in one
-// coefficient only: their rounding, in any order of summation, is within γ_{4 inner} Σ_m total(A)_im total(B)_mj, and
-// their underflow (at most 4 · 8 · 120 products of 2⁻¹⁰⁷⁴ per entry) within the 2⁻¹⁰⁶⁰ that up() adds.
-std::vector<Taylor> product(const std::vector<Taylor>& A, const std::vector<Taylor>& B, int rows, int inner, int cols) {
+// A_kl B_0 + A_k B_l + A_l B_k (A_k B_k on the diagonal); the cubic terms by the entries' sizes or monomial by monomial
+// (cubic_upper), the quartic terms and every product with a remainder as one form's product bounds them (operator*), by
+// products of the entries' sizes rounded upward. Each coefficient of an entry is a sum of at most 4 · inner products
+// of one term of A and one of B, each product in one coefficient only: their rounding, in any order of summation, is
+// within γ_{4 inner} Σ_m total(A)_im total(B)_mj, and their underflow (at most 4 · 8 · 120 products of 2⁻¹⁰⁷⁴ per
+// entry) within the 2⁻¹⁰⁶⁰ that up() adds.
+std::vector<Taylor> product(const std::vector<Taylor>& A, const std::vector<Taylor>& B, int rows, int inner, int cols,
+                            CubicTerms cubic_terms) {
   const int symbols = std::max(symbols_of(A), symbols_of(B));
   const CoefficientMatrices a = coefficient_matrices(A, rows, inner, symbols), b = coefficient_matrices(B, inner, cols, symbols);
+  Eigen::MatrixXd cubic;
+  if (cubic_terms == CubicTerms::by_monomials) cubic = cubic_upper(a, b, symbols);
   std::vector<Eigen::MatrixXd> c(static_cast<std::size_t>(1 + symbols + pair_count(symbols)));
   c[0].noalias() = a.X.part(0) * b.X.part(0);
   for (int k = 0; k < symbols; ++k) {
@@ -600,8 +644,9 @@ std::vector<Taylor> product(const std::vector<Taylor>& A, const std::vector<Tayl
     const UpwardRounding upward;  // sums and products of non-negative terms, each rounded up
     const Eigen::MatrixXd& ar = a.X.entry_remainder;
     const Eigen::MatrixXd& br = b.X.entry_remainder;
-    remainder = a.linear * b.quadratic + a.quadratic * b.linear + a.quadratic * b.quadratic + a.total * br +
-                ar * b.total + ar * br + gamma(4 * inner) * (a.total * b.total);
+    if (cubic_terms == CubicTerms::by_sizes) cubic = a.linear * b.quadratic + a.quadratic * b.linear;
+    remainder = cubic + a.quadratic * b.quadratic + a.total * br + ar * b.total + ar * br +
+                gamma(4 * inner) * (a.total * b.total);
   }
   return forms_of(c, remainder, symbols);
 }
@@ -676,10 +721,10 @@ double gram_norm_upper(const TaylorMatrix& X) {
   return up(centre + std::sqrt(up(squares)) + X.remainder);
 }
 
-// The smallest of the three proven bounds of ||X(ε)||₂ over the box.
-double inverse_norm_upper(const TaylorMatrix& X) {
-  return std::min({norm_upper(X, 0.0), termwise_norm_upper(X), gram_norm_upper(X)});
-}
+// The smaller of the two proven bounds of ||X(ε)||₂ over the box, for the zero-centred E and Kᵀ E (scaled). norm_upper
+// is not taken: on 6- and 7-joint arms it was never the smallest in the searches' first 20,000-46,000 calls (arm3: 14
+// of 3,401, by at most 13 %), and it cost a fine norm bound each (docs/theory.md, "M⁻¹ over a box").
+double inverse_norm_upper(const TaylorMatrix& X) { return std::min(termwise_norm_upper(X), gram_norm_upper(X)); }
 
 std::vector<Taylor> transpose(const std::vector<Taylor>& X, int n) {
   std::vector<Taylor> Y(X.size());
@@ -716,7 +761,7 @@ TaylorInverse inverse(const std::vector<Taylor>& M, int n, int symbols) {
     if (!(eta < 1.0)) return result;
   }
   // c Kᵀ (I - E + E²) K.
-  const std::vector<Taylor> E2 = product(E, E, n, n, n);
+  const std::vector<Taylor> E2 = product(E, E, n, n, n, CubicTerms::by_monomials);
   std::vector<Taylor> Z(E.size());
   for (std::size_t i = 0; i < E.size(); ++i) Z[i] = E2[i] - E[i];
   for (int i = 0; i < n; ++i) Z[i * n + i] = Z[i * n + i] + 1.0;

@@ -120,8 +120,13 @@ TaylorInverse inverse(const std::vector<Taylor>& M, int n, int symbols);
 // scaling"; bounding the two norms part by part in Frobenius norm instead, cheaper, was measured and not kept).
 double tail_upper(const TaylorInverse& inverse, const Eigen::VectorXd& a, const Eigen::VectorXd& b, int symbols);
 
+// How a product of forms bounds its cubic terms (slopes by curvatures): by the products of the entries' sizes, or
+// monomial by monomial, which sees where the inner sums cancel and costs s pair_count(s) products of the factors'
+// coefficient matrices more (docs/theory.md, "Cubic terms of a product").
+enum class CubicTerms { by_sizes, by_monomials };
 // Row-major products of forms: (rows x inner) by (inner x cols), rounding included in the forms.
-std::vector<Taylor> product(const std::vector<Taylor>& A, const std::vector<Taylor>& B, int rows, int inner, int cols);
+std::vector<Taylor> product(const std::vector<Taylor>& A, const std::vector<Taylor>& B, int rows, int inner, int cols,
+                            CubicTerms cubic_terms = CubicTerms::by_sizes);
 
 // An upper bound of max_ε ||X(ε)||_F for row-major forms: sqrt Σ (|c| + radius)², rounded up.
 double frobenius_upper(const std::vector<Taylor>& X);
