@@ -499,8 +499,11 @@ TEST(TaylorMatrices, ProductCubicTermsCancelMonomialByMonomial) {
     for (int point = 0; point < 50; ++point) {
       std::vector<double> epsilon(symbols);
       for (double& e : epsilon) e = uniform(rng);
-      // Each factor's value anywhere within its remainder: here at its polynomial part plus r times a sign.
-      const auto value = [&](const obsgain::Taylor& x) { return polynomial_part(x, epsilon) + (uniform(rng) < 0 ? -x.r : x.r); };
+      // A factor's value may be anywhere within its remainder: here its polynomial part plus r times a random sign,
+      // drawn for each entry of the product (each factor enters an entry once).
+      const auto value = [&](const obsgain::Taylor& x) {
+        return polynomial_part(x, epsilon) + (uniform(rng) < 0.0 ? -x.r : x.r);
+      };
       for (int i = 0; i < rows; ++i)
         for (int j = 0; j < cols; ++j) {
           double exact = 0.0;
