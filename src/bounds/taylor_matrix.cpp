@@ -583,10 +583,9 @@ int triple_index(int k, int first, int second) {
 // pair's monomial): each cubic monomial's coefficient matrix is formed, and their moduli summed. Where the inner sums
 // cancel, this is below the products of the entries' sizes, Σ_m Σ_k |a_imk| Σ_p |b_mjp| (E² in M⁻¹'s series on the
 // iiwa 14's worst open box after the sixteenth round: its bound of L_joint 8.73 -> 8.41; docs/theory.md, "Cubic terms
-// of a product"). Every
-// product a_imk b_mjp enters one coefficient, of at most 6 · inner of them (a monomial ε_i ε_j ε_l is reached from
-// three slopes, each by both orders): their rounding is within γ_(6 inner) (|A|_1 |B|_2 + |A|_2 |B|_1), and their
-// underflow within 2⁻¹⁰⁷⁴ each.
+// of a product"). Every product a_imk b_mjp enters one coefficient, of at most 6 · inner of them (a monomial ε_i ε_j ε_l
+// is reached from three slopes, each by both orders): their rounding is within γ_(6 inner) (|A|_1 |B|_2 + |A|_2 |B|_1),
+// and their underflow within 2⁻¹⁰⁷⁴ each. The coefficient matrices sit side by side in one matrix, one allocation.
 Eigen::MatrixXd cubic_upper(const CoefficientMatrices& a, const CoefficientMatrices& b, int symbols) {
   const auto rows = a.X.centre.rows(), inner = a.X.centre.cols(), cols = b.X.centre.cols();
   const int pairs = pair_count(symbols);
@@ -595,20 +594,20 @@ Eigen::MatrixXd cubic_upper(const CoefficientMatrices& a, const CoefficientMatri
     stacked_b.middleCols(p * cols, cols) = b.X.part(1 + symbols + p);
     stacked_a.middleRows(p * rows, rows) = a.X.part(1 + symbols + p);
   }
-  std::vector<Eigen::MatrixXd> monomials(static_cast<std::size_t>(symbols * (symbols + 1) * (symbols + 2) / 6),
-                                         Eigen::MatrixXd::Zero(rows, cols));
+  const int count = symbols * (symbols + 1) * (symbols + 2) / 6;
+  Eigen::MatrixXd monomials = Eigen::MatrixXd::Zero(rows, cols * count);
   Eigen::MatrixXd slope_first, slope_second;
   for (int k = 0; k < symbols; ++k) {
     slope_first.noalias() = a.X.part(1 + k) * stacked_b;   // A_k B_p, side by side
     slope_second.noalias() = stacked_a * b.X.part(1 + k);  // A_p B_k, one above the other
     for (int p = 0; p < pairs; ++p)
-      monomials[static_cast<std::size_t>(triple_index(k, kPairs.first[p], kPairs.second[p]))] +=
+      monomials.middleCols(triple_index(k, kPairs.first[p], kPairs.second[p]) * cols, cols) +=
           slope_first.middleCols(p * cols, cols) + slope_second.middleRows(p * rows, rows);
   }
   const UpwardRounding upward;
   Eigen::MatrixXd cubic = gamma(6 * static_cast<int>(inner)) * (a.linear * b.quadratic + a.quadratic * b.linear);
-  for (const Eigen::MatrixXd& m : monomials) cubic += m.cwiseAbs();
-  return cubic.array() + std::ldexp(6.0 * static_cast<double>(inner * monomials.size()), -1074);
+  for (int t = 0; t < count; ++t) cubic += monomials.middleCols(t * cols, cols).cwiseAbs();
+  return cubic.array() + std::ldexp(6.0 * static_cast<double>(inner) * count, -1074);
 }
 
 }  // namespace
