@@ -515,6 +515,81 @@ TEST(TaylorMatrices, ProductCubicTermsCancelMonomialByMonomial) {
   }
 }
 
+// A sum of products gathers its cubic terms across the sum before taking their moduli (docs/theory.md, "Cubic terms
+// gathered across a rotated inertia's sum"): 1 + ε₀ε₁² − ε₀ε₁² has a remainder of rounding only, where the products'
+// sizes give 2; ε₀ε₁² alone gives the attained 1. Random sums of four products of forms of two symbols (a joint's
+// arc) with forms of four contain their values at random points, with a remainder at or below the term-by-term sum's.
+// On duals the value's sum is gathered so, and each derivative (the product rule's sum) is the term-by-term one.
+TEST(TaylorForms, SumsOfProductsGatherTheirCubicTermsAcrossTheSum) {
+  using obsgain::Taylor;
+  const Taylor one(1.0), x = monomial(3, 0), square = monomial(3, 1, 1), minus_square = -monomial(3, 1, 1);
+  EXPECT_LT(obsgain::sum_of_products(one, std::array<const Taylor*, 2>{&x, &x}, {&square, &minus_square}).r, 1e-12);
+  EXPECT_NEAR((one + x * square + x * minus_square).r, 2.0, 1e-12);
+  EXPECT_NEAR(obsgain::sum_of_products(one, std::array<const Taylor*, 1>{&x}, {&square}).r, 1.0, 1e-12);
+
+  std::mt19937_64 rng(23);
+  std::normal_distribution<double> normal;
+  std::uniform_real_distribution<double> uniform(-1.0, 1.0);
+  const int symbols = 4;
+  // `arc`: slopes and curvatures in the last two symbols only, as a joint's cosine and sine over an arc.
+  const auto random_form = [&](bool arc) {
+    Taylor z = Taylor::symbol(normal(rng), 0.0, symbols - 1);
+    for (int k = arc ? 2 : 0; k < symbols; ++k) z.a[k] = 0.3 * normal(rng);
+    for (int p = 0; p < obsgain::pair_count(symbols); ++p)
+      if (!arc || obsgain::kPairs.first[p] >= 2) z.b[p] = 0.1 * normal(rng);
+    z.r = 0.01 * std::abs(normal(rng));
+    return z;
+  };
+  for (int trial = 0; trial < 50; ++trial) {
+    std::array<Taylor, 4> xs, ys;
+    std::array<const Taylor*, 4> x, y;
+    const Taylor base = random_form(false);
+    Taylor plain = base;
+    for (int m = 0; m < 4; ++m) {
+      xs[m] = random_form(true);
+      ys[m] = random_form(false);
+      x[m] = &xs[m];
+      y[m] = &ys[m];
+      plain += xs[m] * ys[m];
+    }
+    const Taylor z = obsgain::sum_of_products(base, x, y);
+    EXPECT_LE(z.r, plain.r);
+    for (int point = 0; point < 50; ++point) {
+      std::vector<double> epsilon(symbols);
+      for (double& e : epsilon) e = uniform(rng);
+      const auto value = [&](const Taylor& f) { return polynomial_part(f, epsilon) + (uniform(rng) < 0.0 ? -f.r : f.r); };
+      double exact = value(base);
+      for (int m = 0; m < 4; ++m) exact += value(xs[m]) * value(ys[m]);
+      ASSERT_TRUE(encloses(z, epsilon, exact, 1e-12));
+    }
+  }
+  using D = obsgain::Dual<Taylor>;
+  std::array<D, 2> dx, dy;
+  for (int m = 0; m < 2; ++m) {
+    dx[m] = D(random_form(true));
+    dy[m] = D(random_form(false));
+    dx[m].directions = dy[m].directions = 2;
+    for (int k = 0; k < 2; ++k) {
+      dx[m].derivative[k] = random_form(true);
+      dy[m].derivative[k] = random_form(false);
+    }
+  }
+  const D base(random_form(false));
+  const D fused = obsgain::sum_of_products(base, std::array<const D*, 2>{&dx[0], &dx[1]}, {&dy[0], &dy[1]});
+  const D term_by_term = base + dx[0] * dy[0] + dx[1] * dy[1];
+  ASSERT_EQ(fused.directions, 2);
+  for (int k = -1; k < 2; ++k) {
+    const Taylor& a = k < 0 ? fused.value : fused.derivative[k];
+    const Taylor& b = k < 0 ? term_by_term.value : term_by_term.derivative[k];
+    EXPECT_NEAR(a.c, b.c, 1e-14);
+    for (int p = 0; p < obsgain::pair_count(symbols); ++p) EXPECT_NEAR(a.b[p], b.b[p], 1e-14);
+    if (k < 0)
+      EXPECT_LT(a.r, 0.9 * b.r);  // four random products' cubic terms do not all line up
+    else
+      EXPECT_NEAR(a.r, b.r, 1e-12 * b.r);  // the same sum, in another order
+  }
+}
+
 // The library's forms of M and the Christoffel tensors over the box centre ± radius of the searched joints, the other
 // joints at the centre's values: angle symbols up to kArcRadius, arcs above (bounds/box_forms.hpp).
 obsgain::BoxForms box_forms(const obsgain::Model& model, obsgain::JointSearch s, const Eigen::VectorXd& centre,

@@ -9,6 +9,7 @@
 #pragma once
 
 #include "obsgain/model/serial_chain.hpp"
+#include "obsgain/numerics/dual.hpp"
 
 #include <algorithm>
 #include <array>
@@ -331,7 +332,9 @@ std::array<Vec3<S>, 3> sandwich(const Eigen::Matrix3d& A, const std::array<Vec3<
 //   T3 = (A1 I A1ᵀ - A2 I A2ᵀ)/2, T4 = (A1 I A2ᵀ + A2 I A1ᵀ)/2,
 // an identity in c and s. The part of I symmetric about a lives in T0 alone, which no enclosure of c or s multiplies:
 // a subtree nearly axisymmetric about its joint's axis turns with the enclosure error of its asymmetry only (a wrist
-// over its whole range; docs/theory.md, "Taylor forms").
+// over its whole range; docs/theory.md, "Taylor forms"). Each entry is one sum of products (sum_of_products), whose
+// cubic terms are gathered across the four before their moduli are taken ("Cubic terms gathered across a rotated
+// inertia's sum").
 template <class S>
 std::array<Vec3<S>, 3> rotated_inertia(const Eigen::Vector3d& a, const S& c, const S& s, const S& c2, const S& s2,
                                        const std::array<Vec3<S>, 3>& I) {
@@ -346,7 +349,7 @@ std::array<Vec3<S>, 3> rotated_inertia(const Eigen::Vector3d& a, const S& c, con
       const S T0 = I00[r][k] + 0.5 * (I11[r][k] + I22[r][k]);
       const S T1 = I01[r][k] + I01[k][r], T2 = I02[r][k] + I02[k][r];
       const S T3 = 0.5 * (I11[r][k] - I22[r][k]), T4 = 0.5 * (I12[r][k] + I12[k][r]);
-      R[r][k] = T0 + c * T1 + s * T2 + c2 * T3 + s2 * T4;
+      R[r][k] = sum_of_products(T0, std::array<const S*, 4>{&c, &s, &c2, &s2}, std::array<const S*, 4>{&T1, &T2, &T3, &T4});
     }
   return R;
 }

@@ -213,10 +213,12 @@ inline void scale_into(Taylor& z, double s, const Taylor& x) {
 // Rounding: every coefficient is a sum of at most four products of one term of x and one of y, each such product
 // appearing in one coefficient only: the rounding of them all is within 4.01 · 2⁻⁵² · (|xc| + X1 + X2)(|yc| + Y1 + Y2).
 // z is neither x nor y (its coefficients are written while theirs are read).
-inline void multiply_into(Taylor& z, const Taylor& x, const Taylor& y) {
+// `cubic_by_sizes` false: the cubic terms are left out of r, for a caller that bounds them itself (sum_of_products_into);
+// returns their sizes' bound X1 Y2 + X2 Y1 either way.
+inline double multiply_into(Taylor& z, const Taylor& x, const Taylor& y, bool cubic_by_sizes = true) {
   if (x.is_zero() || y.is_zero()) {  // the exact zero
     z = Taylor(0.0);
-    return;
+    return 0.0;
   }
   const double X1 = x.linear_size(), X2 = x.quadratic_size(), Y1 = y.linear_size(), Y2 = y.quadratic_size();
   z.c = x.c * y.c;
@@ -236,8 +238,83 @@ inline void multiply_into(Taylor& z, const Taylor& x, const Taylor& y) {
   for (int p = 0; p < pair_count(y.symbols); ++p) z.b[p] += x.c * y.b[p];
   for (int p = 0; p < pair_count(x.symbols); ++p) z.b[p] += y.c * x.b[p];
   const double xt = std::abs(x.c) + X1 + X2, yt = std::abs(y.c) + Y1 + Y2;
-  z.r = taylor_detail::up(X1 * Y2 + X2 * Y1 + X2 * Y2 + xt * y.r + yt * x.r + x.r * y.r +
+  const double cubic = X1 * Y2 + X2 * Y1;
+  z.r = taylor_detail::up((cubic_by_sizes ? cubic : 0.0) + X2 * Y2 + xt * y.r + yt * x.r + x.r * y.r +
                           4.01 * kTaylorRoundoff * xt * yt);
+  return cubic;
+}
+
+namespace taylor_detail {
+
+// The cubic terms of a sum of products Σ_m x_m y_m, xl yq + xq yl, gathered by the factor x_m's symbol or pair: row k
+// of `by_slope` holds Σ_m x_mk y_mq (a vector over y's pairs q), row q of `by_pair` Σ_m x_mq y_mk (over y's slopes k).
+// Each row is a part of the coefficients of the monomials ε_k μ_q, so their moduli's sum bounds the cubic terms; the
+// x_m are the factors of few symbols (a joint's cosine and sine), so few rows are used, each an axpy.
+struct CubicGroups {
+  std::array<std::array<double, kTaylorPairs>, kTaylorSymbols> by_slope;
+  std::array<std::array<double, kTaylorSymbols>, kTaylorPairs> by_pair;
+  std::array<bool, kTaylorSymbols> slope_used{};
+  std::array<bool, kTaylorPairs> pair_used{};
+  int symbols = 0;  // of every operand: the rows' length
+
+  void add(const Taylor& x, const Taylor& y) {
+    for (int k = 0; k < x.symbols; ++k) {
+      if (x.a[k] == 0.0) continue;
+      auto& row = by_slope[k];
+      if (!slope_used[k]) std::fill_n(row.begin(), pair_count(symbols), 0.0);
+      slope_used[k] = true;
+      for (int q = 0; q < pair_count(y.symbols); ++q) row[q] += x.a[k] * y.b[q];
+    }
+    for (int q = 0; q < pair_count(x.symbols); ++q) {
+      if (x.b[q] == 0.0) continue;
+      auto& row = by_pair[q];
+      if (!pair_used[q]) std::fill_n(row.begin(), symbols, 0.0);
+      pair_used[q] = true;
+      for (int k = 0; k < y.symbols; ++k) row[k] += x.b[q] * y.a[k];
+    }
+  }
+  // Σ of the rows' moduli, and how many terms that sums (for its rounding).
+  std::pair<double, int> moduli() const {
+    double sum = 0.0;
+    int terms = 0;
+    for (int k = 0; k < symbols; ++k)
+      if (slope_used[k]) {
+        for (int q = 0; q < pair_count(symbols); ++q) sum += std::abs(by_slope[k][q]);
+        terms += pair_count(symbols);
+      }
+    for (int q = 0; q < pair_count(symbols); ++q)
+      if (pair_used[q]) {
+        for (int k = 0; k < symbols; ++k) sum += std::abs(by_pair[q][k]);
+        terms += symbols;
+      }
+    return {sum, terms};
+  }
+};
+
+}  // namespace taylor_detail
+
+// z = base + Σ_m x_m y_m for forms x_m of few symbols (a joint's cos q, sin q, cos 2q, sin 2q): the products' cubic
+// terms are summed across the sum before their moduli are taken (taylor_detail::CubicGroups), so that where they cancel
+// (an entry of a rotated inertia) the remainder does not add them up (docs/theory.md, "Cubic terms gathered across a
+// rotated inertia's sum"). Each gathered coefficient is a sum of `count` products, rounded within γ_(count+2) of their
+// moduli's sum, at most the sizes' bound Σ_m (X1 Y2 + X2 Y1); the moduli's sum is inflated by its own γ. Never above
+// the sizes' bound but for that rounding (the triangle inequality). z is none of the operands.
+inline void sum_of_products_into(Taylor& z, const Taylor& base, const Taylor* const* x, const Taylor* const* y, int count) {
+  using taylor_detail::up;
+  z = base;
+  taylor_detail::CubicGroups cubic;
+  for (int m = 0; m < count; ++m) cubic.symbols = std::max({cubic.symbols, x[m]->symbols, y[m]->symbols});
+  double sizes = 0.0;
+  Taylor term;
+  for (int m = 0; m < count; ++m) {
+    if (x[m]->is_zero() || y[m]->is_zero()) continue;
+    sizes += multiply_into(term, *x[m], *y[m], false);
+    add_into(z, z, term);
+    cubic.add(*x[m], *y[m]);
+  }
+  const auto [moduli, terms] = cubic.moduli();
+  const double sums = (count + 2) * kTaylorRoundoff * 1.01, moduli_sum = (terms + 2) * kTaylorRoundoff * 1.01;
+  z.r = up(z.r + moduli * (1.0 + moduli_sum) + sums * up(sizes) + kTaylorUnderflow * (terms + 1));
 }
 
 inline Taylor operator+(const Taylor& x, const Taylor& y) {
