@@ -583,9 +583,10 @@ int triple_index(int k, int first, int second) {
 // pair's monomial): each cubic monomial's coefficient matrix is formed, and their moduli summed. Where the inner sums
 // cancel, this is below the products of the entries' sizes, Σ_m Σ_k |a_imk| Σ_p |b_mjp| (E² in M⁻¹'s series on the
 // iiwa 14's worst open box after the sixteenth round: its bound of L_joint 8.73 -> 8.41; docs/theory.md, "Cubic terms
-// of a product"). Every product a_imk b_mjp enters one coefficient, of at most 6 · inner of them (a monomial ε_i ε_j ε_l
-// is reached from three slopes, each by both orders): their rounding is within γ_(6 inner) (|A|_1 |B|_2 + |A|_2 |B|_1),
-// and their underflow within 2⁻¹⁰⁷⁴ each. The coefficient matrices sit side by side in one matrix, one allocation.
+// of a product"). Every product a_imk b_mjp enters one coefficient, of at most 6 · inner of them (a monomial
+// ε_i ε_j ε_l is reached from three slopes, each by both orders): their rounding is within γ_(6 inner)
+// (|A|_1 |B|_2 + |A|_2 |B|_1), and their underflow within 2⁻¹⁰⁷⁴ each. The coefficient matrices sit side by side in
+// one matrix, one allocation.
 Eigen::MatrixXd cubic_upper(const CoefficientMatrices& a, const CoefficientMatrices& b, int symbols) {
   const auto rows = a.X.centre.rows(), inner = a.X.centre.cols(), cols = b.X.centre.cols();
   const int pairs = pair_count(symbols);

@@ -557,7 +557,9 @@ TEST(TaylorForms, SumsOfProductsGatherTheirCubicTermsAcrossTheSum) {
     for (int point = 0; point < 50; ++point) {
       std::vector<double> epsilon(symbols);
       for (double& e : epsilon) e = uniform(rng);
-      const auto value = [&](const Taylor& f) { return polynomial_part(f, epsilon) + (uniform(rng) < 0.0 ? -f.r : f.r); };
+      const auto value = [&](const Taylor& f) {
+        return polynomial_part(f, epsilon) + (uniform(rng) < 0.0 ? -f.r : f.r);
+      };
       double exact = value(base);
       for (int m = 0; m < 4; ++m) exact += value(xs[m]) * value(ys[m]);
       ASSERT_TRUE(encloses(z, epsilon, exact, 1e-12));

@@ -349,7 +349,8 @@ std::array<Vec3<S>, 3> rotated_inertia(const Eigen::Vector3d& a, const S& c, con
       const S T0 = I00[r][k] + 0.5 * (I11[r][k] + I22[r][k]);
       const S T1 = I01[r][k] + I01[k][r], T2 = I02[r][k] + I02[k][r];
       const S T3 = 0.5 * (I11[r][k] - I22[r][k]), T4 = 0.5 * (I12[r][k] + I12[k][r]);
-      R[r][k] = sum_of_products(T0, std::array<const S*, 4>{&c, &s, &c2, &s2}, std::array<const S*, 4>{&T1, &T2, &T3, &T4});
+      R[r][k] = sum_of_products(T0, std::array<const S*, 4>{&c, &s, &c2, &s2},
+                                std::array<const S*, 4>{&T1, &T2, &T3, &T4});
     }
   return R;
 }

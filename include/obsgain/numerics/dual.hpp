@@ -180,7 +180,8 @@ T sum_of_products(const T& base, const std::array<const T*, N>& x, const std::ar
 // gathering the derivatives' cubic terms too cost a third more for the iiwa 14's forms, for a bound 1 % lower on its
 // widest boxes, and the searches ended higher (docs/theory.md, "Cubic terms gathered across a rotated inertia's sum").
 template <class T, std::size_t N>
-Dual<T> sum_of_products(const Dual<T>& base, const std::array<const Dual<T>*, N>& x, const std::array<const Dual<T>*, N>& y) {
+Dual<T> sum_of_products(const Dual<T>& base, const std::array<const Dual<T>*, N>& x,
+                        const std::array<const Dual<T>*, N>& y) {
   std::array<const T*, N> xv, yv;
   int directions = base.directions;
   for (std::size_t m = 0; m < N; ++m) {

@@ -213,8 +213,8 @@ inline void scale_into(Taylor& z, double s, const Taylor& x) {
 // Rounding: every coefficient is a sum of at most four products of one term of x and one of y, each such product
 // appearing in one coefficient only: the rounding of them all is within 4.01 · 2⁻⁵² · (|xc| + X1 + X2)(|yc| + Y1 + Y2).
 // z is neither x nor y (its coefficients are written while theirs are read).
-// `cubic_by_sizes` false: the cubic terms are left out of r, for a caller that bounds them itself (sum_of_products_into);
-// returns their sizes' bound X1 Y2 + X2 Y1 either way.
+// `cubic_by_sizes` false: the cubic terms are left out of r, for a caller that bounds them itself
+// (sum_of_products_into); returns their sizes' bound X1 Y2 + X2 Y1 either way.
 inline double multiply_into(Taylor& z, const Taylor& x, const Taylor& y, bool cubic_by_sizes = true) {
   if (x.is_zero() || y.is_zero()) {  // the exact zero
     z = Taylor(0.0);
@@ -299,7 +299,8 @@ struct CubicGroups {
 // rotated inertia's sum"). Each gathered coefficient is a sum of `count` products, rounded within γ_(count+2) of their
 // moduli's sum, at most the sizes' bound Σ_m (X1 Y2 + X2 Y1); the moduli's sum is inflated by its own γ. Never above
 // the sizes' bound but for that rounding (the triangle inequality). z is none of the operands.
-inline void sum_of_products_into(Taylor& z, const Taylor& base, const Taylor* const* x, const Taylor* const* y, int count) {
+inline void sum_of_products_into(Taylor& z, const Taylor& base, const Taylor* const* x, const Taylor* const* y,
+                                 int count) {
   using taylor_detail::up;
   z = base;
   taylor_detail::CubicGroups cubic;
