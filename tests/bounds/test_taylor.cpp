@@ -317,6 +317,34 @@ Eigen::MatrixXd member(const obsgain::TaylorMatrix& X, const std::vector<double>
   return Y;
 }
 
+// The columns of diag(1.2, 1) turned by θ ≈ 0.3 ε, with cos and sin to second order (1 - 0.045 ε², 0.3 ε): they stay
+// orthogonal to every order, so the Gram entry y_1·y_0 vanishes identically, and the largest norm over the box is
+// 1.2 (1 + 0.3⁴/4)^½ = 1.20121. The bound gathers each monomial's coefficient of y_1·y_0 before taking its modulus and
+// sees them cancel: 1.2184. Taken term by term, the products of the slopes alone add 1.2 · 0.3² to that entry, and the
+// bound is 1.2421 (docs/theory.md, "The Gram matrix gathered"). Random matrices of up to 12 symbols and of the
+// envelope's 2n x n shape: the bound holds at random points and corners of the box.
+TEST(TaylorMatrices, NormBoundGathersTheGramMatrix) {
+  obsgain::TaylorMatrix X;
+  X.centre = Eigen::Vector2d(1.2, 1.0).asDiagonal();
+  X.slopes = {(Eigen::Matrix2d() << 0.0, -0.3, 1.2 * 0.3, 0.0).finished()};
+  X.curvatures = {(Eigen::Matrix2d() << -1.2 * 0.045, 0.0, 0.0, -0.045).finished()};
+  const double bound = obsgain::norm_upper(X, 0.0);
+  EXPECT_GE(bound, 1.2 * std::sqrt(1.0 + std::pow(0.3, 4) / 4.0));
+  EXPECT_LT(bound, 1.2200);
+  std::mt19937_64 rng(31);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  for (int trial = 0; trial < 60; ++trial) {
+    const int n = 2 + trial % 6, symbols = 2 + trial % 11, rows = trial % 2 == 0 ? n : 2 * n;
+    const obsgain::TaylorMatrix Y = random_taylor_matrix(rows, n, symbols, 1.0, rng);
+    const double upper = obsgain::norm_upper(Y, 0.0);
+    for (int point = 0; point < 40; ++point) {
+      std::vector<double> e(static_cast<std::size_t>(symbols));
+      for (double& x : e) x = point % 2 == 0 ? unit(rng) : (unit(rng) < 0.0 ? -1.0 : 1.0);
+      EXPECT_LE(obsgain::spectral_norm(member(Y, e)), upper - Y.remainder) << "trial " << trial;
+    }
+  }
+}
+
 // The envelope's remainder, ((r_X + r_Y)² + r_Y²)^½, is attained: with the polynomial parts zero, Δ_X = r_X u vᵀ and
 // Δ_Y = r_Y u vᵀ (unit u, v) make [Δ_X + Δ_Y, Δ_Y]ᵀ = [r_X + r_Y; r_Y] ⊗ v uᵀ, of exactly that norm
 // (docs/theory.md, "Remainders entry by entry in the combinations"). r_X + 2 r_Y would be 1.9 here, not √2.05.
