@@ -413,6 +413,7 @@ Eigen::MatrixXd gram_bounds(const BasisTerms& t, Eigen::VectorXd& s, Eigen::Vect
 template <class Parts>
 double gram_sum_upper(const Parts& P, double sizes) {
   const Eigen::Index count = P.cols();
+  if (count == 0) return 0.0;  // no parts (a box of no sides): nothing varies, and Eigen takes no empty rank update
   Eigen::MatrixXd gram = Eigen::MatrixXd::Zero(count, count);
   gram.selfadjointView<Eigen::Lower>().rankUpdate(P.transpose());
   const UpwardRounding upward;
@@ -510,11 +511,6 @@ Eigen::MatrixXd singular_basis(const Eigen::MatrixXd& C, double& delta) {
 double norm_upper(const TaylorMatrix& X, double floor) {
   const double cheap = X.frobenius_upper();
   if (cheap <= floor || !std::isfinite(cheap)) return cheap;
-  if (X.symbols() == 0) {  // a constant and its remainder (a box of no sides: a one-joint arm's): no parts to bound
-    const double centre = spectral_norm_upper(X.centre);
-    const UpwardRounding upward;
-    return std::min(cheap, up(centre + X.remainder));
-  }
   double delta = 0.0;
   const Eigen::MatrixXd V = singular_basis(X.centre, delta);
   if (!(delta < 0.5)) return cheap;
@@ -789,8 +785,8 @@ double termwise_norm_upper(const TaylorMatrix& X) {
 }
 
 // ||X(ε)||₂ <= ||C||₂ + ||Σ_t μ_t P_t||_F + remainder, P_t the slopes and curvatures and μ_t their monomials, each in
-// [-1, 1]: ||Σ_t μ_t P_t||_F² = μᵀ Γ μ <= Σ_{t,u} |Γ_tu|, Γ the parts' Gram matrix, formed in floating point within
-// γ_e (Σ_t ||P_t||_F)² in all (e entries per part). Where the parts point in different directions, as E's do over a
+// [-1, 1]: ||Σ_t μ_t P_t||_F² = μᵀ Γ μ <= Σ_{t,u} |Γ_tu|, Γ the parts' Gram matrix (gram_sum_upper, each part a
+// column of its e entries). Where the parts point in different directions, as E's do over a
 // box wide in many joints, this is near the root of the sum of their squares where the term-by-term bound adds them
 // (the iiwa 14's worst open box at the end of the fifteenth round's search: ||E|| sampled 0.28, proven 0.58 term by
 // term and 0.41 from the Gram matrix; docs/theory.md, "M⁻¹ over a box").
@@ -799,12 +795,14 @@ double gram_norm_upper(const TaylorMatrix& X) {
   const double centre = spectral_norm_upper(X.centre);  // in the default rounding, as its eigensolver expects
   Eigen::MatrixXd P(X.centre.size(), parts);
   for (int t = 0; t < parts; ++t) P.col(t) = X.part(t + 1).reshaped();
-  const Eigen::MatrixXd gram = P.transpose() * P;
-  const UpwardRounding upward;
   double sizes = 0.0;
-  for (int t = 0; t < parts; ++t) sizes += std::sqrt(P.col(t).squaredNorm());
-  const double squares = gram.cwiseAbs().sum() + gamma(static_cast<int>(X.centre.size())) * up(sizes * sizes);
-  return up(centre + std::sqrt(up(squares)) + X.remainder);
+  {
+    const UpwardRounding upward;
+    for (int t = 0; t < parts; ++t) sizes += std::sqrt(P.col(t).squaredNorm());
+  }
+  const double variation = gram_sum_upper(P, sizes);
+  const UpwardRounding upward;
+  return up(centre + variation + X.remainder);
 }
 
 // The smaller of the two proven bounds of ||X(ε)||₂ over the box, for the zero-centred E and Kᵀ E (scaled). norm_upper
