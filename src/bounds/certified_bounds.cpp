@@ -85,6 +85,16 @@ std::pair<BoundBracket, BoundBracket> race(const StagedSearch& joint, const Stag
   return {J, T};
 }
 
+// The model's half-turn symmetries under which L_T is invariant too: ||T S Φ S T⁻¹|| = ||T Φ T⁻¹|| where T commutes
+// with S (a diagonal T always does). M0, B and L_joint are invariant under every one (docs/theory.md, "Half-turn
+// symmetries").
+std::vector<HalfTurn> invariant_turns(const Model& model, const Eigen::MatrixXd& scaling) {
+  std::vector<HalfTurn> turns;
+  for (const HalfTurn& turn : half_turn_symmetries(model))
+    if (scaling.size() == 0 || commutes_with_flips(scaling, turn.flipped)) turns.push_back(turn);
+  return turns;
+}
+
 }  // namespace
 
 BoundBracket journaled_search(const CertifiedOptions& options, const std::string& request, BranchAndBoundOptions search,
@@ -121,7 +131,7 @@ std::optional<CertifiedBounds> certify_bounds(const Model& model, const BoundRep
                                               const CertifiedOptions& options) {
   if (!certification_unavailable(model).empty()) return std::nullopt;
   const Eigen::VectorXd& V = numeric.velocity_bounds;
-  const JointSearch s = joint_search(model, configuration_joints(model));
+  const JointSearch s = folded(joint_search(model, configuration_joints(model)), invariant_turns(model, numeric.scaling));
   const BoxBounds boxes(model, s, V);
   // The budget goes to what the design rests on first: L_joint for the default certificate, M0 and B (L_paper)
   // for the paper's Lipschitz constant; what a bound leaves unused passes to the next.

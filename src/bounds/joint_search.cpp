@@ -1,5 +1,6 @@
 #include "obsgain/bounds/joint_search.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <numbers>
@@ -28,6 +29,19 @@ JointSearch joint_search(const Model& model, const std::vector<int>& joints) {
     s.domain.push_back(joint.continuous ? Interval(-pi_up, pi_up) : Interval(joint.lower, joint.upper));
   }
   return s;
+}
+
+JointSearch folded(JointSearch search, const std::vector<HalfTurn>& turns) {
+  const double pi_up = std::nextafter(std::numbers::pi, std::numeric_limits<double>::infinity());
+  for (const HalfTurn& turn : turns) {
+    const auto side = std::find(search.joints.begin(), search.joints.end(), turn.joint);
+    if (side == search.joints.end()) continue;
+    Interval& domain = search.domain[static_cast<std::size_t>(side - search.joints.begin())];
+    // lo + π rounded up: the cut side reaches at least a half-turn.
+    const double end = std::nextafter(domain.lower() + pi_up, std::numeric_limits<double>::infinity());
+    if (end < domain.upper()) domain = Interval(domain.lower(), end);
+  }
+  return search;
 }
 
 BoundBracket search_joints(const JointSearch& search, const std::function<BoxBound(const std::vector<Interval>&, double)>& bound,

@@ -1,5 +1,7 @@
 #include "obsgain/model/dynamics.hpp"
 
+#include <algorithm>
+#include <cmath>
 #include <numeric>
 
 namespace obsgain {
@@ -146,7 +148,64 @@ bool symmetric_about(const RigidBody& body, const Eigen::Vector3d& axis) {
   return body.com.cross(axis).isZero(0.0) && commutator.isZero(0.0);
 }
 
+// The coordinate axis a unit vector is, exactly (0, 1, 2), or -1.
+int coordinate_axis(const Eigen::Vector3d& v) {
+  for (int c = 0; c < 3; ++c)
+    if (std::abs(v(c)) == 1.0 && v((c + 1) % 3) == 0.0 && v((c + 2) % 3) == 0.0) return c;
+  return -1;
+}
+
+// Whether a half-turn about a revolute axis through the frame's origin leaves the body's spatial inertia unchanged:
+// the centre of mass on the axis, and no product of inertia between the axis and the plane across it. Exact, as
+// symmetric_about.
+bool half_turn_symmetric(const RigidBody& body, const Eigen::Vector3d& axis) {
+  const int c = coordinate_axis(axis);
+  if (c < 0) return false;
+  const int a = (c + 1) % 3, b = (c + 2) % 3;
+  return body.com(a) == 0.0 && body.com(b) == 0.0 && body.inertia(a, c) == 0.0 && body.inertia(c, a) == 0.0 &&
+         body.inertia(b, c) == 0.0 && body.inertia(c, b) == 0.0;
+}
+
+// Whether a half-turn of the second joint maps the first joint's axis onto itself, reversed: the two axes are
+// coordinate axes of the first body's frame (the second's after its placement's rotation, exactly), different, and
+// meet (the placement's third coordinate is 0). Turning joint 2 by π then turns everything beyond it about its axis,
+// and the first joint's twist only changes sign (docs/theory.md, "Half-turn symmetries").
+bool second_joint_half_turn(const SerialChain& chain) {
+  if (chain.dof() < 2 || chain.joints[0].type != JointType::revolute || chain.joints[1].type != JointType::revolute)
+    return false;
+  const int first = coordinate_axis(chain.joints[0].axis);
+  const int own = coordinate_axis(chain.joints[1].axis);
+  if (first < 0 || own < 0) return false;
+  const int second = coordinate_axis(chain.joints[1].rotation.col(own));  // ± the axis in the first body's frame
+  if (second < 0 || second == first) return false;
+  return chain.joints[1].translation(3 - first - second) == 0.0;
+}
+
 }  // namespace
+
+bool commutes_with_flips(const Eigen::MatrixXd& X, const std::vector<int>& flipped) {
+  std::vector<bool> sign(static_cast<std::size_t>(X.rows()), false);
+  for (int j : flipped) sign[static_cast<std::size_t>(j)] = true;
+  for (Eigen::Index i = 0; i < X.rows(); ++i)
+    for (Eigen::Index k = 0; k < X.cols(); ++k)
+      if (sign[static_cast<std::size_t>(i)] != sign[static_cast<std::size_t>(k)] && X(i, k) != 0.0) return false;
+  return true;
+}
+
+std::vector<HalfTurn> half_turn_symmetries(const Model& model) {
+  const auto* chain = std::get_if<SerialChain>(&model.structure);
+  if (!chain) return {};
+  const std::vector<int> searched = configuration_joints(model);
+  const auto is_searched = [&](int j) { return std::find(searched.begin(), searched.end(), j) != searched.end(); };
+  std::vector<HalfTurn> turns;
+  if (is_searched(1) && second_joint_half_turn(*chain) && commutes_with_flips(model.friction, {0}))
+    turns.push_back({1, {0}});
+  const int last = chain->dof() - 1;
+  if (last > 1 && is_searched(last) && chain->joints.back().type == JointType::revolute &&
+      half_turn_symmetric(chain->bodies.back(), chain->joints.back().axis))
+    turns.push_back({last, {}});
+  return turns;
+}
 
 std::vector<int> configuration_joints(const Model& model) {
   if (is_planar_2r(model)) return {1};

@@ -5,6 +5,10 @@
 #include "test_files.hpp"
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <numbers>
+#include <random>
+
 namespace {
 
 using obsgain_test::examples;
@@ -131,6 +135,82 @@ TEST(Model, ALastBodySymmetricAboutItsAxisTakesItsJointOutOfTheSearch) {
   const obsgain::Model arm6 = obsgain::load_robot({examples + "/arm6.urdf"});
   EXPECT_EQ(obsgain::configuration_joints(arm6), (std::vector<int>{1, 2, 3, 4, 5}));
   EXPECT_GT(last_joint_effect(arm6, Eigen::VectorXd::LinSpaced(6, -2.0, 1.3), 2.9), 1e-6);
+}
+
+// How far M and the Coriolis tensors at q + π e_joint are from S M(q) S and s_i s_j s_l N_i(q)_jl (S flipping
+// `flipped`), relative to their largest entries, at `count` random configurations.
+double half_turn_asymmetry(const obsgain::Model& model, int joint, const std::vector<int>& flipped, int count) {
+  const int n = model.dof();
+  Eigen::VectorXd s = Eigen::VectorXd::Ones(n);
+  for (int j : flipped) s(j) = -1.0;
+  std::mt19937_64 rng(23);
+  std::uniform_real_distribution<double> angle(-3.0, 3.0);
+  double worst = 0.0;
+  for (int t = 0; t < count; ++t) {
+    Eigen::VectorXd q(n);
+    for (int k = 0; k < n; ++k) q(k) = angle(rng);
+    Eigen::VectorXd turned = q;
+    turned(joint) += std::numbers::pi;
+    Eigen::MatrixXd M(n, n), M_turned(n, n);
+    std::vector<Eigen::MatrixXd> N, N_turned;
+    obsgain::mass_matrix(model, q, M);
+    obsgain::mass_matrix(model, turned, M_turned);
+    obsgain::coriolis_tensors(model, q, N);
+    obsgain::coriolis_tensors(model, turned, N_turned);
+    worst = std::max(worst, (M_turned - s.asDiagonal() * M * s.asDiagonal()).cwiseAbs().maxCoeff() / M.cwiseAbs().maxCoeff());
+    for (int i = 0; i < n; ++i) {
+      const Eigen::MatrixXd expected = s(i) * (s.asDiagonal() * N[i] * s.asDiagonal());
+      worst = std::max(worst, (N_turned[i] - expected).cwiseAbs().maxCoeff() / std::max(1e-300, N[i].cwiseAbs().maxCoeff()));
+    }
+  }
+  return worst;
+}
+
+// The UR5's and arm6's shoulder-lift axis meets the base axis at a right angle, and their last body has its centre of
+// mass on its axis: a half-turn of either joint changes M and the Coriolis tensors by signs only (the first joint's),
+// to the last bits, and the searched constants are π-periodic in them. The iiwa's and arm7's shoulders are the same
+// up to 4e-16 in their placements' rotations, the Panda's up to 5e-12: nearly symmetric is not taken. Moving the
+// shoulder off the base axis, or coupling the first joint by friction, loses the shoulder's symmetry.
+TEST(Model, HalfTurnSymmetriesAreTakenFromExactZerosOnlyAndHold) {
+  const Eigen::VectorXd q = Eigen::VectorXd::LinSpaced(6, -2.0, 1.3);
+  for (const char* file : {"ur5.urdf", "arm6.urdf"}) {
+    const obsgain::Model arm = obsgain::load_robot({examples + "/" + file});
+    const std::vector<obsgain::HalfTurn> turns = obsgain::half_turn_symmetries(arm);
+    ASSERT_EQ(turns.size(), 2u) << file;
+    EXPECT_EQ(turns[0].joint, 1);
+    EXPECT_EQ(turns[0].flipped, (std::vector<int>{0}));
+    EXPECT_EQ(turns[1].joint, 5);
+    EXPECT_TRUE(turns[1].flipped.empty());
+    for (const obsgain::HalfTurn& turn : turns) {
+      EXPECT_LT(half_turn_asymmetry(arm, turn.joint, turn.flipped, 20), 1e-13) << file << " joint " << turn.joint;
+      Eigen::VectorXd turned = q;
+      turned(turn.joint) += std::numbers::pi;
+      const double L = obsgain::max_joint_lipschitz_norm(arm, q, arm.velocity_bounds, {});
+      EXPECT_NEAR(obsgain::max_joint_lipschitz_norm(arm, turned, arm.velocity_bounds, {}), L, 1e-12 * L) << file;
+      const double M0 = obsgain::inverse_inertia_norm(arm, q);
+      EXPECT_NEAR(obsgain::inverse_inertia_norm(arm, turned), M0, 1e-12 * M0) << file;
+    }
+  }
+  for (const char* file : {"iiwa14.urdf", "arm7.urdf", "panda.urdf"}) {
+    const obsgain::Model arm = obsgain::load_robot({examples + "/" + file});
+    EXPECT_TRUE(obsgain::half_turn_symmetries(arm).empty()) << file;
+  }
+  EXPECT_GT(half_turn_asymmetry(obsgain::load_robot({examples + "/panda.urdf"}), 1, {0}, 5), 1e-13);
+  EXPECT_TRUE(obsgain::half_turn_symmetries(obsgain::pendubot()).empty());
+  obsgain::Model off_axis = obsgain::load_robot({examples + "/ur5.urdf"});
+  std::get<obsgain::SerialChain>(off_axis.structure).joints[1].translation.x() = 1e-3;
+  ASSERT_EQ(obsgain::half_turn_symmetries(off_axis).size(), 1u);
+  EXPECT_EQ(obsgain::half_turn_symmetries(off_axis)[0].joint, 5);
+  EXPECT_GT(half_turn_asymmetry(off_axis, 1, {0}, 5), 1e-6);
+  obsgain::Model coupled = obsgain::load_robot({examples + "/ur5.urdf"});
+  coupled.friction(0, 1) = coupled.friction(1, 0) = 0.1;
+  ASSERT_EQ(obsgain::half_turn_symmetries(coupled).size(), 1u);
+  EXPECT_EQ(obsgain::half_turn_symmetries(coupled)[0].joint, 5);
+  obsgain::Model unbalanced = obsgain::load_robot({examples + "/ur5.urdf"});
+  std::get<obsgain::SerialChain>(unbalanced.structure).bodies.back().com.x() = 1e-3;
+  ASSERT_EQ(obsgain::half_turn_symmetries(unbalanced).size(), 1u);
+  EXPECT_EQ(obsgain::half_turn_symmetries(unbalanced)[0].joint, 1);
+  EXPECT_GT(half_turn_asymmetry(unbalanced, 5, {}, 5), 1e-6);
 }
 
 }  // namespace

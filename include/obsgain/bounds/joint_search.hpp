@@ -4,6 +4,7 @@
 
 #include "obsgain/bounds/bounds.hpp"
 #include "obsgain/bounds/branch_and_bound.hpp"
+#include "obsgain/model/dynamics.hpp"
 #include "obsgain/model/model.hpp"
 
 #include <functional>
@@ -21,6 +22,11 @@ struct JointSearch {
 
 // The joints' domains: inside their limits, one period (widened by an ulp) for continuous ones.
 JointSearch joint_search(const Model& model, const std::vector<int>& joints);
+
+// The search with each half-turn's joint cut to the first half-turn [lo, lo + π] of its domain, where what is searched
+// is π-periodic in it (model/dynamics.hpp, HalfTurn): every q of the domain is q' + mπ with q' in the cut one
+// (docs/theory.md, "Half-turn symmetries"). Joints whose domain is narrower than π keep it.
+JointSearch folded(JointSearch search, const std::vector<HalfTurn>& turns);
 
 // sup of value(q) over the search: `bound(box, lower)` proves an upper bound over a box of the searched
 // coordinates; `value(q)` evaluates at a full configuration and counts `value_work`; `seed` (a full configuration) is

@@ -147,6 +147,18 @@ Eigen::MatrixXd coriolis_jacobian(const std::vector<Eigen::MatrixXd>& N, const E
 // whole serial chain about its first joint moves no body relative to another: its M and C do not depend on q1.
 std::vector<int> configuration_joints(const Model& model);
 
+// A half-turn of one searched joint that changes M(q) and F only by the signs of some joints' rows and columns:
+// M(q + π e_joint) = S M(q) S and S F S = F, S = diag(±1) with -1 at `flipped`; the flipped joints' positions do not
+// enter M. The constants (sup ||M⁻¹||, ||J||, ||Φ||) are then π-periodic in that joint (docs/theory.md, "Half-turn
+// symmetries"). Found from exact zeros of the model's data only: a chain that is nearly symmetric has none.
+struct HalfTurn {
+  int joint = 0;
+  std::vector<int> flipped;
+};
+std::vector<HalfTurn> half_turn_symmetries(const Model& model);
+// S X S = X for S = diag(±1) with -1 at `flipped` (X square): no entry couples a flipped joint with an unflipped one.
+bool commutes_with_flips(const Eigen::MatrixXd& X, const std::vector<int>& flipped);
+
 
 // Scratch for the functions below, sized once: loops that reuse it allocate nothing.
 struct DynamicsWorkspace {
