@@ -131,7 +131,8 @@ std::optional<CertifiedBounds> certify_bounds(const Model& model, const BoundRep
                                               const CertifiedOptions& options) {
   if (!certification_unavailable(model).empty()) return std::nullopt;
   const Eigen::VectorXd& V = numeric.velocity_bounds;
-  const JointSearch s = folded(joint_search(model, configuration_joints(model)), invariant_turns(model, numeric.scaling));
+  const JointSearch s =
+      folded(joint_search(model, configuration_joints(model)), invariant_turns(model, numeric.scaling));
   const BoxBounds boxes(model, s, V);
   // The budget goes to what the design rests on first: L_joint for the default certificate, M0 and B (L_paper)
   // for the paper's Lipschitz constant; what a bound leaves unused passes to the next.

@@ -157,11 +157,12 @@ double half_turn_asymmetry(const obsgain::Model& model, int joint, const std::ve
     obsgain::mass_matrix(model, turned, M_turned);
     obsgain::coriolis_tensors(model, q, N);
     obsgain::coriolis_tensors(model, turned, N_turned);
-    worst = std::max(worst, (M_turned - s.asDiagonal() * M * s.asDiagonal()).cwiseAbs().maxCoeff() / M.cwiseAbs().maxCoeff());
-    for (int i = 0; i < n; ++i) {
-      const Eigen::MatrixXd expected = s(i) * (s.asDiagonal() * N[i] * s.asDiagonal());
-      worst = std::max(worst, (N_turned[i] - expected).cwiseAbs().maxCoeff() / std::max(1e-300, N[i].cwiseAbs().maxCoeff()));
-    }
+    const auto relative = [](const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y) {
+      return (X - Y).cwiseAbs().maxCoeff() / std::max(1e-300, Y.cwiseAbs().maxCoeff());
+    };
+    worst = std::max(worst, relative(M_turned, s.asDiagonal() * M * s.asDiagonal()));
+    for (int i = 0; i < n; ++i)
+      worst = std::max(worst, relative(N_turned[i], s(i) * (s.asDiagonal() * N[i] * s.asDiagonal())));
   }
   return worst;
 }
