@@ -166,18 +166,31 @@ bool half_turn_symmetric(const RigidBody& body, const Eigen::Vector3d& axis) {
          body.inertia(b, c) == 0.0 && body.inertia(c, b) == 0.0;
 }
 
-// Whether a half-turn of the second joint maps the first joint's axis onto itself, reversed: the two axes are
-// coordinate axes of the first body's frame (the second's after its placement's rotation, exactly), different, and
-// meet (the placement's third coordinate is 0). Turning joint 2 by π then turns everything beyond it about its axis,
-// and the first joint's twist only changes sign (docs/theory.md, "Half-turn symmetries").
+// Whether a placement's entry (r, c) is negligible in every combination that multiplies it (chain_dynamics.hpp,
+// combine): its row in R v, its column in Rᵀ v. Every enclosure of the chain then sees only its modulus.
+bool negligible_entry(const Eigen::Matrix3d& R, int r, int c) {
+  return chain_detail::negligible_coefficient(R(r, c), R.row(r).cwiseAbs().maxCoeff()) &&
+         chain_detail::negligible_coefficient(R(r, c), R.col(c).cwiseAbs().maxCoeff());
+}
+
+// Whether a half-turn of the second joint maps the first joint's axis onto itself, reversed: the two joints' axes are
+// coordinate axes, the second's placement R carries its own onto another coordinate axis of the first body's frame up
+// to negligible entries, and the two meet (the placement's third coordinate is 0). Turning joint 2 by π is then
+// turning the first body's axis end for end with R replaced by H R D (H, D the half-turns about the two axes), which
+// differs from R only in the signs of those negligible entries: every enclosure of the one model is, bit for bit, one
+// of the other (docs/theory.md, "Half-turn symmetries").
 bool second_joint_half_turn(const SerialChain& chain) {
   if (chain.dof() < 2 || chain.joints[0].type != JointType::revolute || chain.joints[1].type != JointType::revolute)
     return false;
   const int first = coordinate_axis(chain.joints[0].axis);
   const int own = coordinate_axis(chain.joints[1].axis);
   if (first < 0 || own < 0) return false;
-  const int second = coordinate_axis(chain.joints[1].rotation.col(own));  // ± the axis in the first body's frame
-  if (second < 0 || second == first) return false;
+  const Eigen::Matrix3d& R = chain.joints[1].rotation;
+  int second = 0;  // the coordinate axis R carries the second joint's onto, ±
+  R.col(own).cwiseAbs().maxCoeff(&second);
+  if (second == first) return false;
+  for (int k = 0; k < 3; ++k)  // the entries H R D flips: row `second` and column `own`, but not both
+    if ((k != own && !negligible_entry(R, second, k)) || (k != second && !negligible_entry(R, k, own))) return false;
   return chain.joints[1].translation(3 - first - second) == 0.0;
 }
 

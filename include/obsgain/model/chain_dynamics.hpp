@@ -65,6 +65,10 @@ void add_small_product(S& sum, double c, const S& x) {
 // Coefficients this small against the largest of a combination are bounded rather than multiplied: a URDF's
 // rotations by quarter turns carry entries of 1e-16 (cos(π/2) in double) that cost a product of forms each.
 inline constexpr double kSmallCoefficient = 1e-8;
+// Whether c is negligible in a combination whose largest coefficient has modulus `largest`. An enclosure then sees
+// only |c| (add_small_product), which the half-turn symmetries of nearly square placements rest on
+// (model/dynamics.hpp, HalfTurn; docs/theory.md, "Half-turn symmetries").
+inline bool negligible_coefficient(double c, double largest) { return std::abs(c) <= kSmallCoefficient * largest; }
 // Σ_j c_j x_j for constant c: on enclosures the zero coefficients are skipped and the negligible ones bounded (an axis
 // along a coordinate axis makes most of them zero, and every product and sum of forms costs work and adds rounding);
 // in double, the plain sum.
@@ -74,12 +78,12 @@ S combine(double c0, const S& x0, double c1, const S& x1, double c2, const S& x2
     return c0 * x0 + c1 * x1 + c2 * x2;
   } else {
     const std::array<std::pair<double, const S*>, 3> terms{{{c0, &x0}, {c1, &x1}, {c2, &x2}}};
-    const double small = kSmallCoefficient * std::max({std::abs(c0), std::abs(c1), std::abs(c2)});
+    const double largest = std::max({std::abs(c0), std::abs(c1), std::abs(c2)});
     S sum(0.0);
     for (const auto& [c, x] : terms)
-      if (std::abs(c) > small) add_product(sum, c, *x);
+      if (!negligible_coefficient(c, largest)) add_product(sum, c, *x);
     for (const auto& [c, x] : terms)
-      if (c != 0.0 && std::abs(c) <= small) add_small_product(sum, c, *x);
+      if (c != 0.0 && negligible_coefficient(c, largest)) add_small_product(sum, c, *x);
     return sum;
   }
 }

@@ -148,9 +148,12 @@ Eigen::MatrixXd coriolis_jacobian(const std::vector<Eigen::MatrixXd>& N, const E
 std::vector<int> configuration_joints(const Model& model);
 
 // A half-turn of one searched joint that changes M(q) and F only by the signs of some joints' rows and columns:
-// M(q + π e_joint) = S M(q) S and S F S = F, S = diag(±1) with -1 at `flipped`; the flipped joints' positions do not
-// enter M. The constants (sup ||M⁻¹||, ||J||, ||Φ||) are then π-periodic in that joint (docs/theory.md, "Half-turn
-// symmetries"). Found from exact zeros of the model's data only: a chain that is nearly symmetric has none.
+// M(q + π e_joint) = S M'(q) S and S F S = F, S = diag(±1) with -1 at `flipped`; the flipped joints' positions do not
+// enter M. M' is the model's own where the data are exact; where a placement is a quarter-turn only up to negligible
+// entries (a URDF's rounded π/2), it is the model with some of those entries' signs flipped, and every box's bound of
+// the one is, bit for bit, one of the other. The certified constants (sup ||M⁻¹||, ||J||, ||Φ||) may then be searched
+// over one half-turn of that joint (docs/theory.md, "Half-turn symmetries"). Found from exact zeros and negligible
+// entries only: a chain that is merely close to symmetric has none.
 struct HalfTurn {
   int joint = 0;
   std::vector<int> flipped;
