@@ -135,24 +135,23 @@ Eigen::MatrixXd coriolis_jacobian(const std::vector<Eigen::MatrixXd>& N, const E
 
 namespace {
 
-// Whether turning a body about a revolute axis through its frame's origin leaves its spatial inertia unchanged: the
-// centre of mass on the axis and the inertia commuting with the rotation's generator [a]x. Only about a coordinate
-// axis (±x, ±y, ±z), where every entry of the cross product and of the commutator is one product by 0 or ±1 or the
-// difference of two such: all exact, so a zero is a true zero and a body that is only nearly symmetric is not taken.
-bool symmetric_about(const RigidBody& body, const Eigen::Vector3d& axis) {
-  const bool coordinate = (axis.array().abs() == 1.0).count() == 1 && (axis.array() == 0.0).count() == 2;
-  if (!coordinate) return false;
-  Eigen::Matrix3d generator;
-  generator << 0.0, -axis.z(), axis.y(), axis.z(), 0.0, -axis.x(), -axis.y(), axis.x(), 0.0;
-  const Eigen::Matrix3d commutator = body.inertia * generator - generator * body.inertia;
-  return body.com.cross(axis).isZero(0.0) && commutator.isZero(0.0);
-}
-
 // The coordinate axis a unit vector is, exactly (0, 1, 2), or -1.
 int coordinate_axis(const Eigen::Vector3d& v) {
   for (int c = 0; c < 3; ++c)
     if (std::abs(v(c)) == 1.0 && v((c + 1) % 3) == 0.0 && v((c + 2) % 3) == 0.0) return c;
   return -1;
+}
+
+// Whether turning a body about a revolute axis through its frame's origin leaves its spatial inertia unchanged: the
+// centre of mass on the axis and the inertia commuting with the rotation's generator [a]x. Only about a coordinate
+// axis (±x, ±y, ±z), where every entry of the cross product and of the commutator is one product by 0 or ±1 or the
+// difference of two such: all exact, so a zero is a true zero and a body that is only nearly symmetric is not taken.
+bool symmetric_about(const RigidBody& body, const Eigen::Vector3d& axis) {
+  if (coordinate_axis(axis) < 0) return false;
+  Eigen::Matrix3d generator;
+  generator << 0.0, -axis.z(), axis.y(), axis.z(), 0.0, -axis.x(), -axis.y(), axis.x(), 0.0;
+  const Eigen::Matrix3d commutator = body.inertia * generator - generator * body.inertia;
+  return body.com.cross(axis).isZero(0.0) && commutator.isZero(0.0);
 }
 
 // Whether a half-turn about a revolute axis through the frame's origin leaves the body's spatial inertia unchanged:
