@@ -31,12 +31,33 @@ JointSearch joint_search(const Model& model, const std::vector<int>& joints) {
   return s;
 }
 
+namespace {
+
+// Where a joint is in the search's sides, or -1.
+int side_of(const JointSearch& search, int joint) {
+  const auto side = std::find(search.joints.begin(), search.joints.end(), joint);
+  return side == search.joints.end() ? -1 : static_cast<int>(side - search.joints.begin());
+}
+
+// Whether the turn's reflections (q_j -> -q_j) keep every searched joint inside its domain as it stands.
+bool reflects_within(const JointSearch& search, const HalfTurn& turn) {
+  for (int joint : turn.flipped) {
+    const int side = side_of(search, joint);
+    if (side >= 0 && search.domain[static_cast<std::size_t>(side)].lower() !=
+                         -search.domain[static_cast<std::size_t>(side)].upper())
+      return false;
+  }
+  return true;
+}
+
+}  // namespace
+
 JointSearch folded(JointSearch search, const std::vector<HalfTurn>& turns) {
   const double pi_up = std::nextafter(std::numbers::pi, std::numeric_limits<double>::infinity());
   for (const HalfTurn& turn : turns) {
-    const auto side = std::find(search.joints.begin(), search.joints.end(), turn.joint);
-    if (side == search.joints.end()) continue;
-    Interval& domain = search.domain[static_cast<std::size_t>(side - search.joints.begin())];
+    const int side = side_of(search, turn.joint);
+    if (side < 0 || !reflects_within(search, turn)) continue;
+    Interval& domain = search.domain[static_cast<std::size_t>(side)];
     // lo + π rounded up: the cut side reaches at least a half-turn.
     const double end = std::nextafter(domain.lower() + pi_up, std::numeric_limits<double>::infinity());
     if (end < domain.upper()) domain = Interval(domain.lower(), end);

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <optional>
 
 namespace obsgain {
 
@@ -193,6 +194,40 @@ bool second_joint_half_turn(const SerialChain& chain) {
   return chain.joints[1].translation(3 - first - second) == 0.0;
 }
 
+// Whether every entry of R is 0 or ±1, exactly, one of them in each row and column: a rotation that carries
+// coordinate axes onto coordinate axes, exactly.
+bool signed_permutation(const Eigen::Matrix3d& R) {
+  for (int r = 0; r < 3; ++r)
+    if (coordinate_axis(R.row(r).transpose()) < 0 || coordinate_axis(R.col(r)) < 0) return false;
+  return true;
+}
+
+// Whether a half-turn of joint k carries everything beyond it onto itself, some later joints reflected: the turn's
+// axis is a coordinate axis through every later body's frame origin, each body from k on is half-turn symmetric about
+// it, and each later placement is a signed permutation that carries it onto a coordinate axis of the next frame. A
+// later joint across that axis is reflected (q_j -> -q_j, and its row and column of M change sign); one along it is
+// not. The reflected joints, or nothing (docs/theory.md, "Half-turn symmetries", the tail). Exact, as
+// half_turn_symmetric; the last body alone is the case k = n.
+std::optional<std::vector<int>> tail_half_turn(const SerialChain& chain, int k) {
+  if (chain.joints[static_cast<std::size_t>(k)].type != JointType::revolute) return std::nullopt;
+  int c = coordinate_axis(chain.joints[static_cast<std::size_t>(k)].axis);
+  std::vector<int> reflected;
+  for (int j = k; c >= 0; ++j) {
+    if (!half_turn_symmetric(chain.bodies[static_cast<std::size_t>(j)], Eigen::Vector3d::Unit(c))) break;
+    if (j + 1 == chain.dof()) return reflected;
+    const ChainJoint& next = chain.joints[static_cast<std::size_t>(j + 1)];
+    if (next.type != JointType::revolute || next.translation((c + 1) % 3) != 0.0 ||
+        next.translation((c + 2) % 3) != 0.0 || !signed_permutation(next.rotation))
+      break;
+    c = coordinate_axis(next.rotation.row(c).transpose());  // the turn's axis in the next frame, Rᵀ e_c
+    if (next.axis(c) == 0.0)
+      reflected.push_back(j + 1);
+    else if (coordinate_axis(next.axis) != c)
+      break;
+  }
+  return std::nullopt;
+}
+
 }  // namespace
 
 bool commutes_with_flips(const Eigen::MatrixXd& X, const std::vector<int>& flipped) {
@@ -208,14 +243,15 @@ std::vector<HalfTurn> half_turn_symmetries(const Model& model) {
   const auto* chain = std::get_if<SerialChain>(&model.structure);
   if (!chain) return {};
   const std::vector<int> searched = configuration_joints(model);
-  const auto is_searched = [&](int j) { return std::find(searched.begin(), searched.end(), j) != searched.end(); };
   std::vector<HalfTurn> turns;
-  if (is_searched(1) && second_joint_half_turn(*chain) && commutes_with_flips(model.friction, {0}))
-    turns.push_back({1, {0}});
-  const int last = chain->dof() - 1;
-  if (last > 1 && is_searched(last) && chain->joints.back().type == JointType::revolute &&
-      half_turn_symmetric(chain->bodies.back(), chain->joints.back().axis))
-    turns.push_back({last, {}});
+  for (int joint : searched) {
+    if (joint == 1 && second_joint_half_turn(*chain) && commutes_with_flips(model.friction, {0})) {
+      turns.push_back({1, {0}});
+      continue;
+    }
+    const std::optional<std::vector<int>> reflected = tail_half_turn(*chain, joint);
+    if (reflected && commutes_with_flips(model.friction, *reflected)) turns.push_back({joint, *reflected});
+  }
   return turns;
 }
 

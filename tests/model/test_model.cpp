@@ -137,8 +137,9 @@ TEST(Model, ALastBodySymmetricAboutItsAxisTakesItsJointOutOfTheSearch) {
   EXPECT_GT(last_joint_effect(arm6, Eigen::VectorXd::LinSpaced(6, -2.0, 1.3), 2.9), 1e-6);
 }
 
-// How far M and the Coriolis tensors at q + π e_joint are from S M'(q) S and s_i s_j s_l N'_i(q)_jl (S flipping
-// `flipped`; M' and N' the `image` model's), relative to their largest entries, at `count` random configurations.
+// How far M and the Coriolis tensors at g q (q + π e_joint with the `flipped` joints' positions negated) are from
+// S M'(q) S and s_i s_j s_l N'_i(q)_jl (S flipping `flipped`; M' and N' the `image` model's), relative to their
+// largest entries, at `count` random configurations.
 double half_turn_asymmetry(const obsgain::Model& model, const obsgain::Model& image, int joint,
                            const std::vector<int>& flipped, int count) {
   const int n = model.dof();
@@ -150,7 +151,7 @@ double half_turn_asymmetry(const obsgain::Model& model, const obsgain::Model& im
   for (int t = 0; t < count; ++t) {
     Eigen::VectorXd q(n);
     for (int k = 0; k < n; ++k) q(k) = angle(rng);
-    Eigen::VectorXd turned = q;
+    Eigen::VectorXd turned = s.asDiagonal() * q;
     turned(joint) += std::numbers::pi;
     Eigen::MatrixXd M(n, n), M_turned(n, n);
     std::vector<Eigen::MatrixXd> N, N_turned;
@@ -184,26 +185,31 @@ obsgain::Model shoulder_turned(obsgain::Model model) {
   return model;
 }
 
-// The UR5's and arm6's shoulder-lift axis meets the base axis at a right angle, and their last body has its centre of
-// mass on its axis: a half-turn of either joint changes M and the Coriolis tensors by signs only (the first joint's),
-// to the last bits, and the searched constants are π-periodic in them. The iiwa's, arm7's and Panda's shoulders are
-// the same up to 4e-16 to 5e-12 in their placements' rotations: a half-turn gives the model with those entries'
-// signs flipped, for any data, and not the model itself (the Panda's by more than 1e-13). Moving the shoulder off the
-// base axis, tilting its axis out of the plane across the base axis by 1e-6, or coupling the first joint by friction
-// loses the shoulder's symmetry.
+// The UR5's and arm6's shoulder-lift axis meets the base axis at a right angle, and their last two bodies are half-turn
+// symmetric about the fifth joint's axis, on which the last joint sits: a half-turn of the shoulder lift, of the fifth
+// joint with the last one reflected, or of the last joint changes M and the Coriolis tensors by signs only (the first
+// joint's, the last joint's, none), to the last bits, and the searched constants are invariant. The iiwa's, arm7's and
+// Panda's shoulders are the same up to 4e-16 to 5e-12 in their placements' rotations: a half-turn gives the model with
+// those entries' signs flipped, for any data, and not the model itself (the Panda's by more than 1e-13). Moving the
+// shoulder off the base axis, tilting its axis out of the plane across the base axis by 1e-6, or coupling the first
+// joint by friction loses the shoulder's symmetry; moving the last joint off the fifth's axis or coupling the two by
+// friction loses the fifth's, and moving the last body's centre of mass loses both of the wrist's.
 TEST(Model, HalfTurnSymmetriesAreTakenWhereTheyHoldUpToNegligibleEntries) {
   const Eigen::VectorXd q = Eigen::VectorXd::LinSpaced(6, -2.0, 1.3);
   for (const char* file : {"ur5.urdf", "arm6.urdf"}) {
     const obsgain::Model arm = obsgain::load_robot({examples + "/" + file});
     const std::vector<obsgain::HalfTurn> turns = obsgain::half_turn_symmetries(arm);
-    ASSERT_EQ(turns.size(), 2u) << file;
+    ASSERT_EQ(turns.size(), 3u) << file;
     EXPECT_EQ(turns[0].joint, 1);
     EXPECT_EQ(turns[0].flipped, (std::vector<int>{0}));
-    EXPECT_EQ(turns[1].joint, 5);
-    EXPECT_TRUE(turns[1].flipped.empty());
+    EXPECT_EQ(turns[1].joint, 4);
+    EXPECT_EQ(turns[1].flipped, (std::vector<int>{5}));
+    EXPECT_EQ(turns[2].joint, 5);
+    EXPECT_TRUE(turns[2].flipped.empty());
     for (const obsgain::HalfTurn& turn : turns) {
       EXPECT_LT(half_turn_asymmetry(arm, turn.joint, turn.flipped, 20), 1e-13) << file << " joint " << turn.joint;
       Eigen::VectorXd turned = q;
+      for (int j : turn.flipped) turned(j) = -turned(j);
       turned(turn.joint) += std::numbers::pi;
       const double L = obsgain::max_joint_lipschitz_norm(arm, q, arm.velocity_bounds, {});
       EXPECT_NEAR(obsgain::max_joint_lipschitz_norm(arm, turned, arm.velocity_bounds, {}), L, 1e-12 * L) << file;
@@ -228,18 +234,28 @@ TEST(Model, HalfTurnSymmetriesAreTakenWhereTheyHoldUpToNegligibleEntries) {
   EXPECT_TRUE(obsgain::half_turn_symmetries(obsgain::pendubot()).empty());
   obsgain::Model off_axis = obsgain::load_robot({examples + "/ur5.urdf"});
   std::get<obsgain::SerialChain>(off_axis.structure).joints[1].translation.x() = 1e-3;
-  ASSERT_EQ(obsgain::half_turn_symmetries(off_axis).size(), 1u);
-  EXPECT_EQ(obsgain::half_turn_symmetries(off_axis)[0].joint, 5);
+  ASSERT_EQ(obsgain::half_turn_symmetries(off_axis).size(), 2u);
+  EXPECT_EQ(obsgain::half_turn_symmetries(off_axis)[0].joint, 4);
   EXPECT_GT(half_turn_asymmetry(off_axis, 1, {0}, 5), 1e-6);
   obsgain::Model coupled = obsgain::load_robot({examples + "/ur5.urdf"});
   coupled.friction(0, 1) = coupled.friction(1, 0) = 0.1;
-  ASSERT_EQ(obsgain::half_turn_symmetries(coupled).size(), 1u);
-  EXPECT_EQ(obsgain::half_turn_symmetries(coupled)[0].joint, 5);
+  ASSERT_EQ(obsgain::half_turn_symmetries(coupled).size(), 2u);
+  EXPECT_EQ(obsgain::half_turn_symmetries(coupled)[0].joint, 4);
+  obsgain::Model wrist_coupled = obsgain::load_robot({examples + "/ur5.urdf"});
+  wrist_coupled.friction(4, 5) = wrist_coupled.friction(5, 4) = 0.1;
+  ASSERT_EQ(obsgain::half_turn_symmetries(wrist_coupled).size(), 2u);
+  EXPECT_EQ(obsgain::half_turn_symmetries(wrist_coupled)[1].joint, 5);
+  obsgain::Model wrist_off_axis = obsgain::load_robot({examples + "/ur5.urdf"});
+  std::get<obsgain::SerialChain>(wrist_off_axis.structure).joints[5].translation.x() = 1e-3;
+  ASSERT_EQ(obsgain::half_turn_symmetries(wrist_off_axis).size(), 2u);
+  EXPECT_EQ(obsgain::half_turn_symmetries(wrist_off_axis)[1].joint, 5);
+  EXPECT_GT(half_turn_asymmetry(wrist_off_axis, 4, {5}, 5), 1e-6);
   obsgain::Model unbalanced = obsgain::load_robot({examples + "/ur5.urdf"});
   std::get<obsgain::SerialChain>(unbalanced.structure).bodies.back().com.x() = 1e-3;
   ASSERT_EQ(obsgain::half_turn_symmetries(unbalanced).size(), 1u);
   EXPECT_EQ(obsgain::half_turn_symmetries(unbalanced)[0].joint, 1);
   EXPECT_GT(half_turn_asymmetry(unbalanced, 5, {}, 5), 1e-6);
+  EXPECT_GT(half_turn_asymmetry(unbalanced, 4, {5}, 5), 1e-6);
 }
 
 }  // namespace

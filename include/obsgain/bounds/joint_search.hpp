@@ -24,8 +24,9 @@ struct JointSearch {
 JointSearch joint_search(const Model& model, const std::vector<int>& joints);
 
 // The search with each half-turn's joint cut to the first half-turn [lo, lo + π] of its domain, where what is searched
-// is π-periodic in it (model/dynamics.hpp, HalfTurn): every q of the domain is q' + mπ with q' in the cut one
-// (docs/theory.md, "Half-turn symmetries"). Joints whose domain is narrower than π keep it.
+// is invariant under the turn (model/dynamics.hpp, HalfTurn): every q of the domain is the image of a q' in the cut
+// one (docs/theory.md, "Half-turn symmetries"). A turn that negates searched joints is taken only where their domains,
+// as they stand when it is taken, are symmetric about 0. Joints whose domain is narrower than π keep it.
 JointSearch folded(JointSearch search, const std::vector<HalfTurn>& turns);
 
 // sup of value(q) over the search: `bound(box, lower)` proves an upper bound over a box of the searched

@@ -147,13 +147,15 @@ Eigen::MatrixXd coriolis_jacobian(const std::vector<Eigen::MatrixXd>& N, const E
 // whole serial chain about its first joint moves no body relative to another: its M and C do not depend on q1.
 std::vector<int> configuration_joints(const Model& model);
 
-// A half-turn of one searched joint that changes M(q) and F only by the signs of some joints' rows and columns:
-// M(q + π e_joint) = S M'(q) S and S F S = F, S = diag(±1) with -1 at `flipped`; the flipped joints' positions do not
-// enter M. M' is the model's own where the data are exact; where a placement is a quarter-turn only up to negligible
-// entries (a URDF's rounded π/2), it is the model with some of those entries' signs flipped, and every box's bound of
-// the one is, bit for bit, one of the other. The certified constants (sup ||M⁻¹||, ||J||, ||Φ||) may then be searched
-// over one half-turn of that joint (docs/theory.md, "Half-turn symmetries"). Found from exact zeros and negligible
-// entries only: a chain that is merely close to symmetric has none.
+// A half-turn of one searched joint, with the positions of the `flipped` joints negated (g q), that changes M and F
+// only by those joints' signs: M(g q) = S M'(q) S and S F S = F, S = diag(±1) with -1 at `flipped`. The shoulder's
+// turn flips the first joint, whose position does not enter M; a turn of the joints beyond which everything is
+// half-turn symmetric flips the later joints across its axis (none for the last body alone). M' is the model's own
+// where the data are exact; where the shoulder's placement is a quarter-turn only up to negligible entries (a URDF's
+// rounded π/2), it is the model with some of those entries' signs flipped, and every box's bound of the one is, bit
+// for bit, one of the other. The certified constants (sup ||M⁻¹||, ||J||, ||Φ||) may then be searched over one
+// half-turn of that joint (docs/theory.md, "Half-turn symmetries"). Found from exact zeros and negligible entries
+// only: a chain that is merely close to symmetric has none. In the order of `joint`, one per joint.
 struct HalfTurn {
   int joint = 0;
   std::vector<int> flipped;
