@@ -85,14 +85,13 @@ std::pair<BoundBracket, BoundBracket> race(const StagedSearch& joint, const Stag
   return {J, T};
 }
 
-// The model's half-turn symmetries under which L_T is invariant too: ||T S Φ S T⁻¹|| = ||T Φ T⁻¹|| where T commutes
-// with S (a diagonal T always does). M0, B and L_joint are invariant under every one (docs/theory.md, "Half-turn
-// symmetries").
-std::vector<HalfTurn> invariant_turns(const Model& model, const Eigen::MatrixXd& scaling) {
-  std::vector<HalfTurn> turns;
-  for (const HalfTurn& turn : half_turn_symmetries(model))
-    if (scaling.size() == 0 || commutes_with_flips(scaling, turn.flipped)) turns.push_back(turn);
-  return turns;
+// The model's symmetries under which L_T is invariant too: ||T P Φ P T⁻¹|| = ||T Φ T⁻¹|| where T commutes with P (a
+// diagonal T always does). M0, B and L_joint are invariant under every one (docs/theory.md, "Chain symmetries").
+std::vector<ChainSymmetry> invariant_symmetries(const Model& model, const Eigen::MatrixXd& scaling) {
+  std::vector<ChainSymmetry> symmetries;
+  for (const ChainSymmetry& g : chain_symmetries(model))
+    if (scaling.size() == 0 || commutes_with_flips(scaling, g.negated)) symmetries.push_back(g);
+  return symmetries;
 }
 
 }  // namespace
@@ -132,7 +131,7 @@ std::optional<CertifiedBounds> certify_bounds(const Model& model, const BoundRep
   if (!certification_unavailable(model).empty()) return std::nullopt;
   const Eigen::VectorXd& V = numeric.velocity_bounds;
   const JointSearch s =
-      folded(joint_search(model, configuration_joints(model)), invariant_turns(model, numeric.scaling));
+      folded(joint_search(model, configuration_joints(model)), invariant_symmetries(model, numeric.scaling));
   const BoxBounds boxes(model, s, V);
   // The budget goes to what the design rests on first: L_joint for the default certificate, M0 and B (L_paper)
   // for the paper's Lipschitz constant; what a bound leaves unused passes to the next.

@@ -155,15 +155,19 @@ bool symmetric_about(const RigidBody& body, const Eigen::Vector3d& axis) {
   return body.com.cross(axis).isZero(0.0) && commutator.isZero(0.0);
 }
 
-// Whether a half-turn about a revolute axis through the frame's origin leaves the body's spatial inertia unchanged:
-// the centre of mass on the axis, and no product of inertia between the axis and the plane across it. Exact, as
-// symmetric_about.
-bool half_turn_symmetric(const RigidBody& body, const Eigen::Vector3d& axis) {
-  const int c = coordinate_axis(axis);
-  if (c < 0) return false;
-  const int a = (c + 1) % 3, b = (c + 2) % 3;
-  return body.com(a) == 0.0 && body.com(b) == 0.0 && body.inertia(a, c) == 0.0 && body.inertia(c, a) == 0.0 &&
-         body.inertia(b, c) == 0.0 && body.inertia(c, b) == 0.0;
+// A diagonal of ±1: the map of a frame that a chain symmetry applies (a half-turn about a coordinate axis, a mirror
+// across a coordinate plane, or -I).
+using Signs = Eigen::Vector3d;
+
+// Whether the map E leaves a body's spatial inertia unchanged: no coordinate of the centre of mass that E negates, no
+// product of inertia between coordinates it treats apart. Exact: a body only nearly symmetric is not taken.
+bool symmetric_under(const RigidBody& body, const Signs& E) {
+  for (int r = 0; r < 3; ++r) {
+    if (E(r) < 0.0 && body.com(r) != 0.0) return false;
+    for (int c = 0; c < 3; ++c)
+      if (E(r) != E(c) && body.inertia(r, c) != 0.0) return false;
+  }
+  return true;
 }
 
 // Whether a placement's entry (r, c) is negligible in every combination that multiplies it (chain_dynamics.hpp,
@@ -173,59 +177,73 @@ bool negligible_entry(const Eigen::Matrix3d& R, int r, int c) {
          chain_detail::negligible_coefficient(R(r, c), R.col(c).cwiseAbs().maxCoeff());
 }
 
-// Whether a half-turn of the second joint maps the first joint's axis onto itself, reversed: the two joints' axes are
-// coordinate axes, the second's placement R carries its own onto another coordinate axis of the first body's frame up
-// to negligible entries, and the two meet (the placement's third coordinate is 0). Turning joint 2 by π is then
-// turning the first body's axis end for end with R replaced by H R D (H, D the half-turns about the two axes), which
-// differs from R only in the signs of those negligible entries: every enclosure of the one model is, bit for bit, one
-// of the other (docs/theory.md, "Half-turn symmetries").
-bool second_joint_half_turn(const SerialChain& chain) {
-  if (chain.dof() < 2 || chain.joints[0].type != JointType::revolute || chain.joints[1].type != JointType::revolute)
-    return false;
-  const int first = coordinate_axis(chain.joints[0].axis);
-  const int own = coordinate_axis(chain.joints[1].axis);
-  if (first < 0 || own < 0) return false;
-  const Eigen::Matrix3d& R = chain.joints[1].rotation;
-  int second = 0;  // the coordinate axis R carries the second joint's onto, ±
-  R.col(own).cwiseAbs().maxCoeff(&second);
-  if (second == first) return false;
-  for (int k = 0; k < 3; ++k)  // the entries H R D flips: row `second` and column `own`, but not both
-    if ((k != own && !negligible_entry(R, second, k)) || (k != second && !negligible_entry(R, k, own))) return false;
-  return chain.joints[1].translation(3 - first - second) == 0.0;
+// E carried through a placement's rotation R into the next frame: E' with E R E' = R' where R' differs from R only in
+// the signs of negligible entries (0 or negligible_entry), so that the model with R' is bounded by the same numbers,
+// bit for bit (docs/theory.md, "Chain symmetries"). E'(c) is E at the row of column c's largest entry.
+std::optional<Signs> carried(const Signs& E, const Eigen::Matrix3d& R) {
+  Signs next;
+  for (int c = 0; c < 3; ++c) {
+    int r = 0;
+    R.col(c).cwiseAbs().maxCoeff(&r);
+    next(c) = E(r);
+  }
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c)
+      if (E(r) != next(c) && !negligible_entry(R, r, c)) return std::nullopt;
+  return next;
 }
 
-// Whether every entry of R is 0 or ±1, exactly, one of them in each row and column: a rotation that carries
-// coordinate axes onto coordinate axes, exactly.
-bool signed_permutation(const Eigen::Matrix3d& R) {
-  for (int r = 0; r < 3; ++r)
-    if (coordinate_axis(R.row(r).transpose()) < 0 || coordinate_axis(R.col(r)) < 0) return false;
+// Whether E fixes a placement's translation t. Beyond the first body, exactly; into it, up to a shift along the first
+// joint's axis a₁, which the first joint's rotation about a fixed axis does not see.
+bool fixes(const Signs& E, const Eigen::Vector3d& t, const Eigen::Vector3d& first_axis, bool first) {
+  for (int c = 0; c < 3; ++c)
+    if (E(c) < 0.0 && t(c) != 0.0 && !(first && coordinate_axis(first_axis) == c)) return false;
   return true;
 }
 
-// Whether a half-turn of joint k carries everything beyond it onto itself, some later joints reflected: the turn's
-// axis is a coordinate axis through every later body's frame origin, each body from k on is half-turn symmetric about
-// it, and each later placement is a signed permutation that carries it onto a coordinate axis of the next frame. A
-// later joint across that axis is reflected (q_j -> -q_j, and its row and column of M change sign); one along it is
-// not. The reflected joints, or nothing (docs/theory.md, "Half-turn symmetries", the tail). Exact, as
-// half_turn_symmetric; the last body alone is the case k = n.
-std::optional<std::vector<int>> tail_half_turn(const SerialChain& chain, int k) {
-  if (chain.joints[static_cast<std::size_t>(k)].type != JointType::revolute) return std::nullopt;
-  int c = coordinate_axis(chain.joints[static_cast<std::size_t>(k)].axis);
-  std::vector<int> reflected;
-  for (int j = k; c >= 0; ++j) {
-    if (!half_turn_symmetric(chain.bodies[static_cast<std::size_t>(j)], Eigen::Vector3d::Unit(c))) break;
-    if (j + 1 == chain.dof()) return reflected;
-    const ChainJoint& next = chain.joints[static_cast<std::size_t>(j + 1)];
-    if (next.type != JointType::revolute || next.translation((c + 1) % 3) != 0.0 ||
-        next.translation((c + 2) % 3) != 0.0 || !signed_permutation(next.rotation))
-      break;
-    c = coordinate_axis(next.rotation.row(c).transpose());  // the turn's axis in the next frame, Rᵀ e_c
-    if (next.axis(c) == 0.0)
-      reflected.push_back(j + 1);
-    else if (coordinate_axis(next.axis) != c)
-      break;
+// A chain symmetry under construction: the path from the first joint to joint j.
+struct ChainWalk {
+  const SerialChain& chain;
+  ChainSymmetry path;
+  std::vector<ChainSymmetry> found;
+};
+
+// Follows E (in joint j's frame, before its rotation) down the chain. E Rot(a, q) E = Rot(a, σ q) where E a = λ a and
+// σ = det(E) λ: the joint's position is negated where σ = -1, and may be turned by π too (Rot(a, q + π) = Rot(a, q) D,
+// D the half-turn about a), which hands D E to its body instead of E. Every body from the second on must be symmetric
+// under what it is handed; the first rotates about a fixed axis, and its kinetic energy sees only that axis. A
+// prismatic joint is passed only where E is the identity (its R a is not read through combine).
+void walk(ChainWalk& w, int j, const Signs& E) {
+  const ChainJoint& joint = w.chain.joints[static_cast<std::size_t>(j)];
+  const bool revolute = joint.type == JointType::revolute;
+  if (!revolute && E != Signs::Ones()) return;  // a prismatic joint only where nothing is mapped
+  double lambda = 0.0;
+  for (int c = 0; c < 3; ++c)
+    if (joint.axis(c) != 0.0) {
+      if (lambda != 0.0 && lambda != E(c)) return;
+      lambda = E(c);
+    }
+  const bool negated = E.prod() * lambda < 0.0;
+  const int axis = coordinate_axis(joint.axis);
+  for (const bool turned : {false, true}) {
+    if (turned && (j == 0 || axis < 0 || !revolute)) continue;  // turning the first joint moves nothing relative
+    Signs body = E;
+    if (turned) body = -E, body(axis) = E(axis);
+    if (j > 0 && !symmetric_under(w.chain.bodies[static_cast<std::size_t>(j)], body)) continue;
+    w.path.frames.push_back(E);
+    if (negated) w.path.negated.push_back(j);
+    if (turned) w.path.turned.push_back(j);
+    if (j + 1 == w.chain.dof()) {
+      w.found.push_back(w.path);
+    } else {
+      const ChainJoint& next = w.chain.joints[static_cast<std::size_t>(j + 1)];
+      const std::optional<Signs> E_next = carried(body, next.rotation);
+      if (E_next && fixes(body, next.translation, w.chain.joints[0].axis, j == 0)) walk(w, j + 1, *E_next);
+    }
+    w.path.frames.pop_back();
+    if (negated) w.path.negated.pop_back();
+    if (turned) w.path.turned.pop_back();
   }
-  return std::nullopt;
 }
 
 }  // namespace
@@ -239,20 +257,40 @@ bool commutes_with_flips(const Eigen::MatrixXd& X, const std::vector<int>& flipp
   return true;
 }
 
-std::vector<HalfTurn> half_turn_symmetries(const Model& model) {
+std::vector<ChainSymmetry> chain_symmetries(const Model& model) {
   const auto* chain = std::get_if<SerialChain>(&model.structure);
-  if (!chain) return {};
+  if (!chain || chain->dof() < 2) return {};
+  ChainWalk w{*chain, {}, {}};
+  for (int mask = 0; mask < 8; ++mask)  // every diagonal of ±1 the first joint's frame may be mapped by
+    walk(w, 0, Signs(mask & 1 ? -1.0 : 1.0, mask & 2 ? -1.0 : 1.0, mask & 4 ? -1.0 : 1.0));
   const std::vector<int> searched = configuration_joints(model);
-  std::vector<HalfTurn> turns;
-  for (int joint : searched) {
-    if (joint == 1 && second_joint_half_turn(*chain) && commutes_with_flips(model.friction, {0})) {
-      turns.push_back({1, {0}});
-      continue;
+  const auto moved = [&](const ChainSymmetry& g) {  // the searched joints g moves, in order
+    std::vector<int> joints;
+    for (int j : searched)
+      if (std::count(g.negated.begin(), g.negated.end(), j) + std::count(g.turned.begin(), g.turned.end(), j) > 0)
+        joints.push_back(j);
+    return joints;
+  };
+  // Per searched joint, the turn (not negating it) and the mirror (negating it) that move no searched joint before it,
+  // each the one that moves fewest joints (then the first in the walk's order).
+  std::vector<ChainSymmetry> chosen;
+  for (int joint : searched)
+    for (const bool mirror : {false, true}) {
+      const ChainSymmetry* best = nullptr;
+      std::size_t best_moved = 0, best_size = 0;
+      for (const ChainSymmetry& g : w.found) {
+        const std::vector<int> joints = moved(g);
+        const bool negates = std::count(g.negated.begin(), g.negated.end(), joint) > 0;
+        if (joints.empty() || joints.front() != joint || negates != mirror ||
+            !commutes_with_flips(model.friction, g.negated))
+          continue;
+        const std::size_t size = g.negated.size() + g.turned.size();
+        if (!best || joints.size() < best_moved || (joints.size() == best_moved && size < best_size))
+          best = &g, best_moved = joints.size(), best_size = size;
+      }
+      if (best) chosen.push_back(*best);
     }
-    const std::optional<std::vector<int>> reflected = tail_half_turn(*chain, joint);
-    if (reflected && commutes_with_flips(model.friction, *reflected)) turns.push_back({joint, *reflected});
-  }
-  return turns;
+  return chosen;
 }
 
 std::vector<int> configuration_joints(const Model& model) {

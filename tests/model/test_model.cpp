@@ -137,125 +137,162 @@ TEST(Model, ALastBodySymmetricAboutItsAxisTakesItsJointOutOfTheSearch) {
   EXPECT_GT(last_joint_effect(arm6, Eigen::VectorXd::LinSpaced(6, -2.0, 1.3), 2.9), 1e-6);
 }
 
-// How far M and the Coriolis tensors at g q (q + π e_joint with the `flipped` joints' positions negated) are from
-// S M'(q) S and s_i s_j s_l N'_i(q)_jl (S flipping `flipped`; M' and N' the `image` model's), relative to their
-// largest entries, at `count` random configurations.
-double half_turn_asymmetry(const obsgain::Model& model, const obsgain::Model& image, int joint,
-                           const std::vector<int>& flipped, int count) {
+bool contains(const std::vector<int>& joints, int joint) {
+  return std::find(joints.begin(), joints.end(), joint) != joints.end();
+}
+
+// g q: the `negated` joints' positions negated, then the `turned` ones' turned by π.
+Eigen::VectorXd mapped(const obsgain::ChainSymmetry& g, Eigen::VectorXd q) {
+  for (int j : g.negated) q(j) = -q(j);
+  for (int j : g.turned) q(j) += std::numbers::pi;
+  return q;
+}
+
+// The model whose M at q is `model`'s at g q up to P: each placement R_j becomes B R_j E, E what joint j's frame is
+// mapped by and B what the body before it is (its joint's E, times the half-turn about that joint's axis where it is
+// turned). That is R_j where the chain carries the maps exactly, and R_j with some negligible entries' signs flipped
+// where it carries them only up to those.
+obsgain::Model image_of(obsgain::Model model, const obsgain::ChainSymmetry& g) {
+  auto& chain = std::get<obsgain::SerialChain>(model.structure);
+  for (int j = 1; j < chain.dof(); ++j) {
+    Eigen::Vector3d body = g.frames[static_cast<std::size_t>(j - 1)];
+    if (contains(g.turned, j - 1)) {
+      Eigen::Index axis = 0;
+      chain.joints[static_cast<std::size_t>(j - 1)].axis.cwiseAbs().maxCoeff(&axis);
+      body = -body;
+      body(axis) = -body(axis);
+    }
+    obsgain::ChainJoint& joint = chain.joints[static_cast<std::size_t>(j)];
+    joint.rotation = body.asDiagonal() * joint.rotation * g.frames[static_cast<std::size_t>(j)].asDiagonal();
+  }
+  return model;
+}
+
+// How far M and the Coriolis tensors at g q are from P M'(q) P and p_i P N'_i(q) P (P = diag(±1) with -1 at the
+// negated joints; M' and N' the `image` model's), relative to their largest entries, at `count` random configurations.
+double asymmetry(const obsgain::Model& model, const obsgain::Model& image, const obsgain::ChainSymmetry& g, int count) {
   const int n = model.dof();
-  Eigen::VectorXd s = Eigen::VectorXd::Ones(n);
-  for (int j : flipped) s(j) = -1.0;
+  Eigen::VectorXd p = Eigen::VectorXd::Ones(n);
+  for (int j : g.negated) p(j) = -1.0;
   std::mt19937_64 rng(23);
   std::uniform_real_distribution<double> angle(-3.0, 3.0);
   double worst = 0.0;
   for (int t = 0; t < count; ++t) {
     Eigen::VectorXd q(n);
     for (int k = 0; k < n; ++k) q(k) = angle(rng);
-    Eigen::VectorXd turned = s.asDiagonal() * q;
-    turned(joint) += std::numbers::pi;
-    Eigen::MatrixXd M(n, n), M_turned(n, n);
-    std::vector<Eigen::MatrixXd> N, N_turned;
+    Eigen::MatrixXd M(n, n), M_mapped(n, n);
+    std::vector<Eigen::MatrixXd> N, N_mapped;
     obsgain::mass_matrix(image, q, M);
-    obsgain::mass_matrix(model, turned, M_turned);
+    obsgain::mass_matrix(model, mapped(g, q), M_mapped);
     obsgain::coriolis_tensors(image, q, N);
-    obsgain::coriolis_tensors(model, turned, N_turned);
+    obsgain::coriolis_tensors(model, mapped(g, q), N_mapped);
     const auto relative = [](const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y) {
       return (X - Y).cwiseAbs().maxCoeff() / std::max(1e-300, Y.cwiseAbs().maxCoeff());
     };
-    worst = std::max(worst, relative(M_turned, s.asDiagonal() * M * s.asDiagonal()));
+    worst = std::max(worst, relative(M_mapped, p.asDiagonal() * M * p.asDiagonal()));
     for (int i = 0; i < n; ++i)
-      worst = std::max(worst, relative(N_turned[i], s(i) * (s.asDiagonal() * N[i] * s.asDiagonal())));
+      worst = std::max(worst, relative(N_mapped[i], p(i) * (p.asDiagonal() * N[i] * p.asDiagonal())));
   }
   return worst;
 }
-double half_turn_asymmetry(const obsgain::Model& model, int joint, const std::vector<int>& flipped, int count) {
-  return half_turn_asymmetry(model, model, joint, flipped, count);
+double asymmetry(const obsgain::Model& model, const obsgain::ChainSymmetry& g, int count) {
+  return asymmetry(model, model, g, count);
 }
 
-// The model whose shoulder at q is `model`'s at q + π e_2: the second joint's placement R becomes H R D, H and D the
-// half-turns about the coordinate axes R carries the joint's axis onto and the axis itself.
-obsgain::Model shoulder_turned(obsgain::Model model) {
-  obsgain::ChainJoint& joint = std::get<obsgain::SerialChain>(model.structure).joints[1];
-  Eigen::Index own = 0, second = 0;
-  joint.axis.cwiseAbs().maxCoeff(&own);
-  joint.rotation.col(own).cwiseAbs().maxCoeff(&second);
-  Eigen::Vector3d h = -Eigen::Vector3d::Ones(), d = -Eigen::Vector3d::Ones();
-  h(second) = d(own) = 1.0;
-  joint.rotation = h.asDiagonal() * joint.rotation * d.asDiagonal();
-  return model;
+// A symmetry's joints: its negated ones, then -1, then its turned ones.
+std::vector<int> joints_of(const obsgain::ChainSymmetry& g) {
+  std::vector<int> joints = g.negated;
+  joints.push_back(-1);
+  joints.insert(joints.end(), g.turned.begin(), g.turned.end());
+  return joints;
+}
+std::vector<std::vector<int>> joints_of(const std::vector<obsgain::ChainSymmetry>& symmetries) {
+  std::vector<std::vector<int>> all;
+  for (const obsgain::ChainSymmetry& g : symmetries) all.push_back(joints_of(g));
+  return all;
 }
 
-// The UR5's and arm6's shoulder-lift axis meets the base axis at a right angle, and their last two bodies are half-turn
-// symmetric about the fifth joint's axis, on which the last joint sits: a half-turn of the shoulder lift, of the fifth
-// joint with the last one reflected, or of the last joint changes M and the Coriolis tensors by signs only (the first
-// joint's, the last joint's, none), to the last bits, and the searched constants are invariant. The iiwa's, arm7's and
-// Panda's shoulders are the same up to 4e-16 to 5e-12 in their placements' rotations: a half-turn gives the model with
-// those entries' signs flipped, for any data, and not the model itself (the Panda's by more than 1e-13). Moving the
-// shoulder off the base axis, tilting its axis out of the plane across the base axis by 1e-6, or coupling the first
-// joint by friction loses the shoulder's symmetry; moving the last joint off the fifth's axis or coupling the two by
-// friction loses the fifth's, and moving the last body's centre of mass loses both of the wrist's.
-TEST(Model, HalfTurnSymmetriesAreTakenWhereTheyHoldUpToNegligibleEntries) {
+// The UR5's and arm6's chains have four symmetries: the shoulder lift's half-turn (the first joint negated, which M
+// does not see), the mirror image of the arm (the shoulder lift, elbow and first two wrist joints negated, the wrist's
+// turned), a half-turn of the fifth joint (the last negated) and of the last. M, the Coriolis tensors and the searched
+// constants keep their values up to P, to the last bits, for the UR5's mirror with M' (its file rounds π/2: its own M
+// is off by more than 1e-13). The iiwa's, arm7's and Panda's shoulders are the same up to 4e-16 to 5e-12 in their
+// placements' rotations: the shoulder's half-turn gives the model with those entries' signs flipped, for any data,
+// and not the model itself (the Panda's by more than 1e-13).
+TEST(Model, ChainSymmetriesHoldUpToNegligibleEntries) {
   const Eigen::VectorXd q = Eigen::VectorXd::LinSpaced(6, -2.0, 1.3);
+  const std::vector<std::vector<int>> expected{{0, -1, 1}, {1, 2, 3, 4, -1, 3, 4}, {5, -1, 4}, {-1, 5}};
   for (const char* file : {"ur5.urdf", "arm6.urdf"}) {
     const obsgain::Model arm = obsgain::load_robot({examples + "/" + file});
-    const std::vector<obsgain::HalfTurn> turns = obsgain::half_turn_symmetries(arm);
-    ASSERT_EQ(turns.size(), 3u) << file;
-    EXPECT_EQ(turns[0].joint, 1);
-    EXPECT_EQ(turns[0].flipped, (std::vector<int>{0}));
-    EXPECT_EQ(turns[1].joint, 4);
-    EXPECT_EQ(turns[1].flipped, (std::vector<int>{5}));
-    EXPECT_EQ(turns[2].joint, 5);
-    EXPECT_TRUE(turns[2].flipped.empty());
-    for (const obsgain::HalfTurn& turn : turns) {
-      EXPECT_LT(half_turn_asymmetry(arm, turn.joint, turn.flipped, 20), 1e-13) << file << " joint " << turn.joint;
-      Eigen::VectorXd turned = q;
-      for (int j : turn.flipped) turned(j) = -turned(j);
-      turned(turn.joint) += std::numbers::pi;
-      const double L = obsgain::max_joint_lipschitz_norm(arm, q, arm.velocity_bounds, {});
-      EXPECT_NEAR(obsgain::max_joint_lipschitz_norm(arm, turned, arm.velocity_bounds, {}), L, 1e-12 * L) << file;
-      const double M0 = obsgain::inverse_inertia_norm(arm, q);
-      EXPECT_NEAR(obsgain::inverse_inertia_norm(arm, turned), M0, 1e-12 * M0) << file;
+    const std::vector<obsgain::ChainSymmetry> symmetries = obsgain::chain_symmetries(arm);
+    ASSERT_EQ(joints_of(symmetries), expected) << file;
+    for (const obsgain::ChainSymmetry& g : symmetries) {
+      const obsgain::Model image = image_of(arm, g);
+      EXPECT_LT(asymmetry(arm, image, g, 20), 1e-13) << file;
+      const double L = obsgain::max_joint_lipschitz_norm(image, q, arm.velocity_bounds, {});
+      EXPECT_NEAR(obsgain::max_joint_lipschitz_norm(arm, mapped(g, q), arm.velocity_bounds, {}), L, 1e-12 * L) << file;
+      const double M0 = obsgain::inverse_inertia_norm(image, q);
+      EXPECT_NEAR(obsgain::inverse_inertia_norm(arm, mapped(g, q)), M0, 1e-12 * M0) << file;
     }
+    EXPECT_LT(asymmetry(arm, symmetries[0], 20), 1e-13) << file;
+    EXPECT_LT(asymmetry(arm, symmetries[2], 20), 1e-13) << file;
   }
+  const obsgain::Model ur5 = obsgain::load_robot({examples + "/ur5.urdf"});
+  EXPECT_GT(asymmetry(ur5, obsgain::chain_symmetries(ur5)[1], 5), 1e-13);
   for (const char* file : {"iiwa14.urdf", "arm7.urdf", "panda.urdf"}) {
     const obsgain::Model arm = obsgain::load_robot({examples + "/" + file});
-    const std::vector<obsgain::HalfTurn> turns = obsgain::half_turn_symmetries(arm);
-    ASSERT_EQ(turns.size(), 1u) << file;
-    EXPECT_EQ(turns[0].joint, 1);
-    EXPECT_EQ(turns[0].flipped, (std::vector<int>{0}));
-    EXPECT_LT(half_turn_asymmetry(arm, shoulder_turned(arm), 1, {0}, 20), 1e-13) << file;
+    const std::vector<obsgain::ChainSymmetry> symmetries = obsgain::chain_symmetries(arm);
+    ASSERT_EQ(joints_of(symmetries), (std::vector<std::vector<int>>{{0, -1, 1}})) << file;
+    EXPECT_LT(asymmetry(arm, image_of(arm, symmetries[0]), symmetries[0], 20), 1e-13) << file;
   }
-  EXPECT_GT(half_turn_asymmetry(obsgain::load_robot({examples + "/panda.urdf"}), 1, {0}, 5), 1e-13);
-  obsgain::Model tilted = obsgain::load_robot({examples + "/iiwa14.urdf"});
+  const obsgain::Model panda = obsgain::load_robot({examples + "/panda.urdf"});
+  EXPECT_GT(asymmetry(panda, obsgain::chain_symmetries(panda)[0], 5), 1e-13);
+  // arm3: the shoulder lift's turn with P = I (its M has no first row off the diagonal), and its mirror.
+  const obsgain::Model arm3 = obsgain::load_robot({examples + "/arm3.urdf"});
+  ASSERT_EQ(joints_of(obsgain::chain_symmetries(arm3)), (std::vector<std::vector<int>>{{-1, 1}, {1, 2, -1}}));
+  for (const obsgain::ChainSymmetry& g : obsgain::chain_symmetries(arm3)) EXPECT_LT(asymmetry(arm3, g, 20), 1e-13);
+  EXPECT_TRUE(obsgain::chain_symmetries(obsgain::pendubot()).empty());
+}
+
+// Breaking the data breaks the symmetries that rest on them, and only those: tilting the iiwa's shoulder axis by 1e-6
+// out of the plane across the base axis (its image is still an identity for any data, but not its own), moving the
+// UR5's shoulder or last joint, or its last body's centre of mass, by a millimetre, or coupling joints by friction.
+// Where another map still holds it is taken instead: the last body off its axis keeps a half-turn of the fifth joint
+// with the last turned too, and friction between the first two joints or the last two a mirror that negates both.
+TEST(Model, ChainSymmetriesAreNotTakenWhereTheDataBreakThem) {
+  const obsgain::Model iiwa = obsgain::load_robot({examples + "/iiwa14.urdf"});
+  obsgain::Model tilted = iiwa;
   std::get<obsgain::SerialChain>(tilted.structure).joints[1].rotation(2, 2) = 1e-6;
-  EXPECT_TRUE(obsgain::half_turn_symmetries(tilted).empty());
-  EXPECT_LT(half_turn_asymmetry(tilted, shoulder_turned(tilted), 1, {0}, 5), 1e-13);  // an identity for any data
-  EXPECT_GT(half_turn_asymmetry(tilted, 1, {0}, 5), 1e-8);
-  EXPECT_TRUE(obsgain::half_turn_symmetries(obsgain::pendubot()).empty());
-  obsgain::Model off_axis = obsgain::load_robot({examples + "/ur5.urdf"});
+  EXPECT_TRUE(obsgain::chain_symmetries(tilted).empty());
+  const obsgain::ChainSymmetry shoulder = obsgain::chain_symmetries(iiwa)[0];
+  EXPECT_LT(asymmetry(tilted, image_of(tilted, shoulder), shoulder, 5), 1e-13);
+  EXPECT_GT(asymmetry(tilted, shoulder, 5), 1e-8);
+  const obsgain::Model ur5 = obsgain::load_robot({examples + "/ur5.urdf"});
+  const std::vector<obsgain::ChainSymmetry> all = obsgain::chain_symmetries(ur5);
+  const std::vector<int> turn_2{0, -1, 1}, mirror{1, 2, 3, 4, -1, 3, 4}, turn_5{5, -1, 4}, turn_6{-1, 5};
+  const auto expect_left = [](const obsgain::Model& broken, const std::vector<std::vector<int>>& left) {
+    const std::vector<obsgain::ChainSymmetry> symmetries = obsgain::chain_symmetries(broken);
+    EXPECT_EQ(joints_of(symmetries), left);
+    for (const obsgain::ChainSymmetry& g : symmetries) EXPECT_LT(asymmetry(broken, image_of(broken, g), g, 5), 1e-13);
+  };
+  obsgain::Model off_axis = ur5;
   std::get<obsgain::SerialChain>(off_axis.structure).joints[1].translation.x() = 1e-3;
-  ASSERT_EQ(obsgain::half_turn_symmetries(off_axis).size(), 2u);
-  EXPECT_EQ(obsgain::half_turn_symmetries(off_axis)[0].joint, 4);
-  EXPECT_GT(half_turn_asymmetry(off_axis, 1, {0}, 5), 1e-6);
-  obsgain::Model coupled = obsgain::load_robot({examples + "/ur5.urdf"});
-  coupled.friction(0, 1) = coupled.friction(1, 0) = 0.1;
-  ASSERT_EQ(obsgain::half_turn_symmetries(coupled).size(), 2u);
-  EXPECT_EQ(obsgain::half_turn_symmetries(coupled)[0].joint, 4);
-  obsgain::Model wrist_coupled = obsgain::load_robot({examples + "/ur5.urdf"});
-  wrist_coupled.friction(4, 5) = wrist_coupled.friction(5, 4) = 0.1;
-  ASSERT_EQ(obsgain::half_turn_symmetries(wrist_coupled).size(), 2u);
-  EXPECT_EQ(obsgain::half_turn_symmetries(wrist_coupled)[1].joint, 5);
-  obsgain::Model wrist_off_axis = obsgain::load_robot({examples + "/ur5.urdf"});
+  expect_left(off_axis, {mirror, turn_5, turn_6});
+  EXPECT_GT(asymmetry(off_axis, all[0], 5), 1e-6);
+  obsgain::Model wrist_off_axis = ur5;
   std::get<obsgain::SerialChain>(wrist_off_axis.structure).joints[5].translation.x() = 1e-3;
-  ASSERT_EQ(obsgain::half_turn_symmetries(wrist_off_axis).size(), 2u);
-  EXPECT_EQ(obsgain::half_turn_symmetries(wrist_off_axis)[1].joint, 5);
-  EXPECT_GT(half_turn_asymmetry(wrist_off_axis, 4, {5}, 5), 1e-6);
-  obsgain::Model unbalanced = obsgain::load_robot({examples + "/ur5.urdf"});
+  expect_left(wrist_off_axis, {turn_2, mirror, turn_6});
+  EXPECT_GT(asymmetry(wrist_off_axis, all[2], 5), 1e-6);
+  obsgain::Model unbalanced = ur5;
   std::get<obsgain::SerialChain>(unbalanced.structure).bodies.back().com.x() = 1e-3;
-  ASSERT_EQ(obsgain::half_turn_symmetries(unbalanced).size(), 1u);
-  EXPECT_EQ(obsgain::half_turn_symmetries(unbalanced)[0].joint, 1);
-  EXPECT_GT(half_turn_asymmetry(unbalanced, 5, {}, 5), 1e-6);
-  EXPECT_GT(half_turn_asymmetry(unbalanced, 4, {5}, 5), 1e-6);
+  expect_left(unbalanced, {turn_2, mirror, {5, -1, 4, 5}});
+  for (int k : {2, 3}) EXPECT_GT(asymmetry(unbalanced, all[static_cast<std::size_t>(k)], 5), 1e-6);
+  obsgain::Model coupled = ur5;
+  coupled.friction(0, 1) = coupled.friction(1, 0) = 0.1;
+  expect_left(coupled, {{0, 1, 2, 3, 4, -1, 1, 3, 4}, turn_5, turn_6});
+  obsgain::Model wrist_coupled = ur5;
+  wrist_coupled.friction(4, 5) = wrist_coupled.friction(5, 4) = 0.1;
+  expect_left(wrist_coupled, {turn_2, {1, 2, 3, 4, 5, -1, 3}, turn_6});
 }
 
 }  // namespace

@@ -23,11 +23,12 @@ struct JointSearch {
 // The joints' domains: inside their limits, one period (widened by an ulp) for continuous ones.
 JointSearch joint_search(const Model& model, const std::vector<int>& joints);
 
-// The search with each half-turn's joint cut to the first half-turn [lo, lo + π] of its domain, where what is searched
-// is invariant under the turn (model/dynamics.hpp, HalfTurn): every q of the domain is the image of a q' in the cut
-// one (docs/theory.md, "Half-turn symmetries"). A turn that negates searched joints is taken only where their domains,
-// as they stand when it is taken, are symmetric about 0. Joints whose domain is narrower than π keep it.
-JointSearch folded(JointSearch search, const std::vector<HalfTurn>& turns);
+// The search cut by the chain's symmetries (model/dynamics.hpp, ChainSymmetry), taken in order: each cuts the first
+// searched joint it moves, a turn to the first half-turn [lo, lo + π] of its domain, a mirror to one side of its fixed
+// point, where every other searched joint it moves keeps its domain as it stands (a turn needs the whole circle, a
+// negation a domain symmetric about 0). Every q of the domain is then the image of a q' in the cut one under the
+// symmetries (docs/theory.md, "Chain symmetries"). Domains narrower than the cut are kept.
+JointSearch folded(JointSearch search, const std::vector<ChainSymmetry>& symmetries);
 
 // sup of value(q) over the search: `bound(box, lower)` proves an upper bound over a box of the searched
 // coordinates; `value(q)` evaluates at a full configuration and counts `value_work`; `seed` (a full configuration) is

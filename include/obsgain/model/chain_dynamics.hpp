@@ -66,8 +66,8 @@ void add_small_product(S& sum, double c, const S& x) {
 // rotations by quarter turns carry entries of 1e-16 (cos(π/2) in double) that cost a product of forms each.
 inline constexpr double kSmallCoefficient = 1e-8;
 // Whether c is negligible in a combination whose largest coefficient has modulus `largest`. An enclosure then sees
-// only |c| (add_small_product), which the half-turn symmetries of nearly square placements rest on
-// (model/dynamics.hpp, HalfTurn; docs/theory.md, "Half-turn symmetries").
+// only |c| (add_small_product), which the symmetries of nearly square placements rest on
+// (model/dynamics.hpp, ChainSymmetry; docs/theory.md, "Chain symmetries").
 inline bool negligible_coefficient(double c, double largest) { return std::abs(c) <= kSmallCoefficient * largest; }
 // Σ_j c_j x_j for constant c: on enclosures the zero coefficients are skipped and the negligible ones bounded (an axis
 // along a coordinate axis makes most of them zero, and every product and sum of forms costs work and adds rounding);

@@ -147,20 +147,24 @@ Eigen::MatrixXd coriolis_jacobian(const std::vector<Eigen::MatrixXd>& N, const E
 // whole serial chain about its first joint moves no body relative to another: its M and C do not depend on q1.
 std::vector<int> configuration_joints(const Model& model);
 
-// A half-turn of one searched joint, with the positions of the `flipped` joints negated (g q), that changes M and F
-// only by those joints' signs: M(g q) = S M'(q) S and S F S = F, S = diag(±1) with -1 at `flipped`. The shoulder's
-// turn flips the first joint, whose position does not enter M; a turn of the joints beyond which everything is
-// half-turn symmetric flips the later joints across its axis (none for the last body alone). M' is the model's own
-// where the data are exact; where the shoulder's placement is a quarter-turn only up to negligible entries (a URDF's
-// rounded π/2), it is the model with some of those entries' signs flipped, and every box's bound of the one is, bit
-// for bit, one of the other. The certified constants (sup ||M⁻¹||, ||J||, ||Φ||) may then be searched over one
-// half-turn of that joint (docs/theory.md, "Half-turn symmetries"). Found from exact zeros and negligible entries
-// only: a chain that is merely close to symmetric has none. In the order of `joint`, one per joint.
-struct HalfTurn {
-  int joint = 0;
-  std::vector<int> flipped;
+// A symmetry of a serial chain: g q negates the positions of `negated`, then turns those of `turned` by π, and
+// M(g q) = P M'(q) P, P = diag(±1) with -1 at `negated` (the velocities map as the positions), with P F P = F. It
+// maps the first joint's frame by a diagonal of ±1 (a half-turn, a mirror or -I; `frames[j]` is what joint j's frame
+// is mapped by, before its rotation) and everything beyond it onto itself: the shoulder's half-turn, a half-turn of a
+// joint beyond which the chain is symmetric, the mirror image of the whole arm. M' is the model's own where the
+// placements carry those maps exactly; where they do only up to negligible entries (a URDF's rounded π/2), it is the
+// model with those entries' signs flipped, and every box's bound of the one is, bit for bit, one of the other. The
+// certified constants (sup ||M⁻¹||, ||J||, ||Φ||) take the same values at q and g q, so the searches may cover part
+// of the domain (bounds/joint_search.hpp, folded; docs/theory.md, "Chain symmetries"). Found from exact zeros and
+// negligible entries only: a chain that is merely close to symmetric has none.
+struct ChainSymmetry {
+  std::vector<int> negated;
+  std::vector<int> turned;
+  std::vector<Eigen::Vector3d> frames;
 };
-std::vector<HalfTurn> half_turn_symmetries(const Model& model);
+// Per searched joint in order, the symmetry that turns it and the one that negates it, each moving no searched joint
+// before it and the fewest after it.
+std::vector<ChainSymmetry> chain_symmetries(const Model& model);
 // S X S = X for S = diag(±1) with -1 at `flipped` (X square): no entry couples a flipped joint with an unflipped one.
 bool commutes_with_flips(const Eigen::MatrixXd& X, const std::vector<int>& flipped);
 
