@@ -397,8 +397,8 @@ TEST(ChainSymmetries, FoldingCutsTheFirstJointEachMoves) {
 }
 
 // The iiwa's shoulder is a quarter-turn only up to entries of 1e-16 in its placement: its half-turn gives the model
-// with those entries' signs flipped (model/dynamics.hpp, HalfTurn), and every box's bounds of the two models are the
-// same numbers, bit for bit, since an enclosure sees a negligible entry only through its modulus. They hold the
+// with those entries' signs flipped (model/dynamics.hpp, ChainSymmetry), and every box's bounds of the two models are
+// the same numbers, bit for bit, since an enclosure sees a negligible entry only through its modulus. They hold the
 // model's values at the half-turned configurations of the box.
 TEST(ChainSymmetries, ABoxBoundsTheModelWithNegligibleEntriesFlippedToTheLastBit) {
   const obsgain::Model iiwa = obsgain::load_robot({examples + "/iiwa14.urdf"});
