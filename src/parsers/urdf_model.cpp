@@ -449,7 +449,7 @@ Eigen::VectorXd chain_armature(const tinyxml2::XMLDocument& document, const std:
   Eigen::VectorXd armature = Eigen::VectorXd::Zero(n);
   if (!options.armature.empty()) {
     if (static_cast<int>(options.armature.size()) != n)
-      throw InputError(fmt::format("armature: the chain has {} joints, got {} values", n, options.armature.size()));
+      throw InputError(fmt::format("armature: the chain has {} joints; give one value per joint, not {}", n, options.armature.size()));
     for (int i = 0; i < n; ++i) {
       if (!(options.armature[i] >= 0.0)) throw InputError(fmt::format("armature: a{} = {} must be >= 0", i + 1, options.armature[i]));
       armature(i) = options.armature[i];
@@ -480,7 +480,7 @@ Eigen::VectorXd chain_armature(const tinyxml2::XMLDocument& document, const std:
 Eigen::MatrixXd input_matrix(const std::vector<int>& actuated, int n) {
   if (actuated.empty()) return Eigen::MatrixXd::Identity(n, n);
   if (static_cast<int>(actuated.size()) != n)
-    throw InputError(fmt::format("actuated: the chain has {} joints, got {} flags", n, actuated.size()));
+    throw InputError(fmt::format("actuated: the chain has {} joints; give one flag per joint, not {}", n, actuated.size()));
   std::vector<int> columns;
   for (int i = 0; i < n; ++i) {
     if (actuated[i] != 0 && actuated[i] != 1)
@@ -511,7 +511,8 @@ Model load_urdf(const RobotSource& options) {
   const int n = built.chain.dof();
   if (n == 0) throw InputError(fmt::format("{}: the chain below '{}' has no moving joint", source, base));
   if (!options.joint_limits.empty() && static_cast<int>(options.joint_limits.size()) != n)
-    throw InputError(fmt::format("joint-limits: the chain has {} joints, got {} ranges", n, options.joint_limits.size()));
+    throw InputError(fmt::format("joint-limits: the chain has {} joints; give one range per joint, not {}", n,
+                                 options.joint_limits.size()));
   if (!built.locked.empty()) {
     model.notes.push_back(fmt::format("locked and lumped into the chain's bodies: {} (middle of range, or as <mimic> says)",
                                       fmt::join(built.locked, ", ")));

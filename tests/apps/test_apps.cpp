@@ -399,7 +399,7 @@ TEST(Urdf, MalformedRobotsExitTwoWithOneLine) {
   expect_refused("--robot " + examples + "/arm3.urdf --tip-link gripper --gamma 1", "there is no link 'gripper'");
   expect_refused("--robot " + examples + "/arm3.urdf --base-link forearm --tip-link turret --gamma 1",
                  "no chain from 'forearm' down to 'turret'");
-  expect_refused("--robot " + examples + "/pendubot.urdf --actuated 1,0,1 --gamma 1", "2 joints, got 3 flags");
+  expect_refused("--robot " + examples + "/pendubot.urdf --actuated 1,0,1 --gamma 1", "2 joints; give one flag per joint, not 3");
   expect_refused("--robot pendubot --actuated 1,0 --gamma 1", "apply to URDF robots only");
 }
 

@@ -195,7 +195,7 @@ TEST(Urdf, MalformedFilesAreRefusedNamingTheProblem) {
                  "not a valid URDF");
   expect_urdf_refused({good, "base", "forearm", {}}, "no link 'forearm'");
   expect_urdf_refused({good, "l2", "base", {}}, "no chain from 'l2' down to 'base'");
-  expect_urdf_refused({good, "", "", {1}}, "the chain has 2 joints, got 1 flags");
+  expect_urdf_refused({good, "", "", {1}}, "the chain has 2 joints; give one flag per joint, not 1");
   expect_urdf_refused({good, "", "", {1, 2}}, "flag 2 = 2 must be 0 or 1");
   // The last link carries nothing: joint j2 moves no inertia and M(q) is singular.
   expect_urdf_refused({write_temp_file("massless.urdf", with_second_link(""))}, "joint 'j2' moves no mass or inertia");
