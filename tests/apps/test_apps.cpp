@@ -400,6 +400,8 @@ TEST(Urdf, MalformedRobotsExitTwoWithOneLine) {
   expect_refused("--robot " + examples + "/arm3.urdf --base-link forearm --tip-link turret --gamma 1",
                  "no chain from 'forearm' down to 'turret'");
   expect_refused("--robot " + examples + "/pendubot.urdf --actuated 1,0,1 --gamma 1", "2 joints; give one flag per joint, not 3");
+  expect_refused("--robot " + examples + "/panda.urdf --armature 0.1 --gamma 1", "7 joints; give one value per joint, not 1");
+  expect_refused("--robot " + examples + "/pendubot.urdf --joint-limits c --gamma 1", "2 joints; give one range per joint, not 1");
   expect_refused("--robot pendubot --actuated 1,0 --gamma 1", "apply to URDF robots only");
 }
 
