@@ -35,15 +35,11 @@ namespace {
 
 constexpr double kUp = std::numeric_limits<double>::infinity();
 
-bool contains(const std::vector<int>& joints, int joint) {
-  return std::find(joints.begin(), joints.end(), joint) != joints.end();
-}
-
 // The sides of the search whose joints g moves, in order.
 std::vector<std::size_t> moved_sides(const JointSearch& search, const ChainSymmetry& g) {
   std::vector<std::size_t> sides;
   for (std::size_t k = 0; k < search.joints.size(); ++k)
-    if (contains(g.negated, search.joints[k]) || contains(g.turned, search.joints[k])) sides.push_back(k);
+    if (g.moves(search.joints[k])) sides.push_back(k);
   return sides;
 }
 
@@ -53,7 +49,7 @@ bool same(const Interval& a, const Interval& b) { return a.lower() == b.lower() 
 // symmetric about 0.
 bool maps_onto_itself(const JointSearch& search, const ChainSymmetry& g, std::size_t side, const Interval& circle) {
   const Interval& domain = search.domain[side];
-  if (contains(g.turned, search.joints[side])) return same(domain, circle);
+  if (g.turns(search.joints[side])) return same(domain, circle);
   return domain.lower() == -domain.upper();
 }
 
@@ -80,8 +76,8 @@ std::vector<ChainSymmetry> taken_order(const JointSearch& search, std::vector<Ch
   for (std::size_t i = 0; i + 1 < symmetries.size(); ++i) {
     const std::size_t side = first_side(symmetries[i]);
     if (side < search.joints.size() && side == first_side(symmetries[i + 1]) &&
-        !contains(symmetries[i].negated, search.joints[side]) &&
-        contains(symmetries[i + 1].negated, search.joints[side]) && !same(search.domain[side], circle))
+        !symmetries[i].negates(search.joints[side]) && symmetries[i + 1].negates(search.joints[side]) &&
+        !same(search.domain[side], circle))
       std::swap(symmetries[i], symmetries[i + 1]);
   }
   return symmetries;
@@ -103,8 +99,8 @@ JointSearch folded(JointSearch search, const std::vector<ChainSymmetry>& symmetr
     const int joint = search.joints[side];
     Interval& domain = search.domain[side];
     const bool was_circle = same(domain, circle);
-    if (contains(g.negated, joint)) {
-      domain = mirrored_cut(domain, contains(g.turned, joint), was_circle, half_circle[side]);
+    if (g.negates(joint)) {
+      domain = mirrored_cut(domain, g.turns(joint), was_circle, half_circle[side]);
       half_circle[side] = false;
       continue;
     }

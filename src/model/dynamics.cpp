@@ -267,8 +267,7 @@ std::vector<ChainSymmetry> chain_symmetries(const Model& model) {
   const auto moved = [&](const ChainSymmetry& g) {  // the searched joints g moves, in order
     std::vector<int> joints;
     for (int j : searched)
-      if (std::count(g.negated.begin(), g.negated.end(), j) + std::count(g.turned.begin(), g.turned.end(), j) > 0)
-        joints.push_back(j);
+      if (g.moves(j)) joints.push_back(j);
     return joints;
   };
   // Per searched joint, the turn (not negating it) and the mirror (negating it) that move no searched joint before it,
@@ -280,8 +279,7 @@ std::vector<ChainSymmetry> chain_symmetries(const Model& model) {
       std::size_t best_moved = 0, best_size = 0;
       for (const ChainSymmetry& g : w.found) {
         const std::vector<int> joints = moved(g);
-        const bool negates = std::count(g.negated.begin(), g.negated.end(), joint) > 0;
-        if (joints.empty() || joints.front() != joint || negates != mirror ||
+        if (joints.empty() || joints.front() != joint || g.negates(joint) != mirror ||
             !commutes_with_flips(model.friction, g.negated))
           continue;
         const std::size_t size = g.negated.size() + g.turned.size();

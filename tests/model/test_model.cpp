@@ -137,10 +137,6 @@ TEST(Model, ALastBodySymmetricAboutItsAxisTakesItsJointOutOfTheSearch) {
   EXPECT_GT(last_joint_effect(arm6, Eigen::VectorXd::LinSpaced(6, -2.0, 1.3), 2.9), 1e-6);
 }
 
-bool contains(const std::vector<int>& joints, int joint) {
-  return std::find(joints.begin(), joints.end(), joint) != joints.end();
-}
-
 // g q: the `negated` joints' positions negated, then the `turned` ones' turned by π.
 Eigen::VectorXd mapped(const obsgain::ChainSymmetry& g, Eigen::VectorXd q) {
   for (int j : g.negated) q(j) = -q(j);
@@ -156,7 +152,7 @@ obsgain::Model image_of(obsgain::Model model, const obsgain::ChainSymmetry& g) {
   auto& chain = std::get<obsgain::SerialChain>(model.structure);
   for (int j = 1; j < chain.dof(); ++j) {
     Eigen::Vector3d body = g.frames[static_cast<std::size_t>(j - 1)];
-    if (contains(g.turned, j - 1)) {
+    if (g.turns(j - 1)) {
       Eigen::Index axis = 0;
       chain.joints[static_cast<std::size_t>(j - 1)].axis.cwiseAbs().maxCoeff(&axis);
       body = -body;

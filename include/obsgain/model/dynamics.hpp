@@ -9,6 +9,7 @@
 
 #include <Eigen/Dense>
 
+#include <algorithm>
 #include <array>
 #include <vector>
 
@@ -161,6 +162,10 @@ struct ChainSymmetry {
   std::vector<int> negated;
   std::vector<int> turned;
   std::vector<Eigen::Vector3d> frames;
+
+  bool negates(int joint) const { return std::find(negated.begin(), negated.end(), joint) != negated.end(); }
+  bool turns(int joint) const { return std::find(turned.begin(), turned.end(), joint) != turned.end(); }
+  bool moves(int joint) const { return negates(joint) || turns(joint); }
 };
 // Per searched joint in order, the symmetry that turns it and the one that negates it, each moving no searched joint
 // before it and the fewest after it.
