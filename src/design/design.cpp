@@ -369,8 +369,14 @@ void choose_certificate(Design& d, const DesignOptions& options) {
     d.warnings.push_back(fmt::format("--certificate scaled: {}; the tight certificate is used",
                                      d.L_source != to_string(LipschitzKind::joint)
                                          ? "similarity scaling applies to the computed L_joint only"
-                                         : "the bounds kept no similarity scaling (none lowered L_joint's estimate enough)"));
+                                         : "the bounds kept no similarity scaling (none lowered L_joint's estimate)"));
     d.certificate = CertificateKind::tight;
+  } else if (options.certificate == CertificateKind::scaled && d.bounds.L_scaled.value >= d.L_used) {
+    // Named, it is used as asked; where L_T's search lost the race it rests on the larger constant.
+    d.warnings.push_back(fmt::format("--certificate scaled: L_T = {:.7g} is not below L_joint = {:.7g} (L_T's proof "
+                                     "went less far), so the scaled certificate needs the larger theta; without "
+                                     "--certificate the better of the two is chosen",
+                                     d.bounds.L_scaled.value, d.L_used));
   }
 }
 
@@ -494,6 +500,8 @@ BoundReport design_bounds(const Model& model, const Eigen::VectorXd& V, const De
                                 options.certificate.value_or(CertificateKind::scaled) != CertificateKind::tight &&
                                 options.certificate != CertificateKind::paper;
   if (!scalable_request) bound_options.diagonal_scaling = false;
+  if (options.certificate == CertificateKind::scaled || options.certificate == CertificateKind::polytopic)
+    bound_options.scaling_min_gain = bound_options.named_scaling_min_gain;
   BoundReport bounds = compute_bounds(model, V, bound_options);
   if (options.bound_method == BoundMethod::certified) {
     phase(options.certified_bounds.budget_seconds > 0.0

@@ -29,6 +29,10 @@ struct BoundOptions {
   // bound covers them all (docs/theory.md, "Similarity scaling").
   bool diagonal_scaling = true;  // false: no scaling is searched (full or diagonal)
   double scaling_min_gain = 0.05;
+  // Where the scaled certificate is named (--certificate scaled, or polytopic, which falls back to it), any T whose
+  // estimate is below L_joint's is kept: the request accepts the envelope constant's factor cond(T) and the race of
+  // the two proofs for the few per cent (docs/theory.md, "Similarity scaling").
+  double named_scaling_min_gain = 0.0;
   int scaling_rounds = 4;  // find T on the worst configurations, search L_T, add its argmax, again
   int scaling_max_dof = 7;
   int full_scaling_max_dof = 3;
