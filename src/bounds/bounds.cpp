@@ -388,7 +388,7 @@ Eigen::MatrixXd scaling_on(const Model& model, const Eigen::VectorXd& V, const s
     }
     if (!added) break;
     T = full ? best_similarity(matrices, options.full_scaling_max_condition)
-             : Eigen::MatrixXd(best_diagonal_scaling(matrices).asDiagonal());
+             : Eigen::MatrixXd(best_diagonal_scaling(matrices, options.scaling_slack).asDiagonal());
     chosen_on = 0.0;
     for (const Eigen::MatrixXd& Phi : matrices) chosen_on = std::max(chosen_on, similar_norm(T, Phi));
   }
@@ -458,7 +458,7 @@ double max_joint_lipschitz_norm(const Model& model, const Eigen::VectorXd& q, co
   return joint_lipschitz_maximum(model, q, velocity_bounds, scaling, choice);
 }
 
-Eigen::VectorXd best_diagonal_scaling(const std::vector<Eigen::MatrixXd>& matrices) {
+Eigen::VectorXd best_diagonal_scaling(const std::vector<Eigen::MatrixXd>& matrices, double slack) {
   const auto n = matrices.front().rows();
   // log t_j for j >= 1 (t_0 = 1: T and cT are the same similarity), within a factor 10³ of the first joint's.
   const auto scaling = [n](const Eigen::VectorXd& x) {
@@ -474,7 +474,17 @@ Eigen::VectorXd best_diagonal_scaling(const std::vector<Eigen::MatrixXd>& matric
     return value;
   };
   const Eigen::VectorXd bound = Eigen::VectorXd::Constant(n - 1, std::log(1e3));
-  return scaling(minimize_nonsmooth(worst, Eigen::VectorXd::Zero(n - 1), -bound, bound, 1e-4, 300 * static_cast<int>(n - 1)).x);
+  const int evaluations = 300 * static_cast<int>(n - 1);
+  const OptimumPoint best = minimize_nonsmooth(worst, Eigen::VectorXd::Zero(n - 1), -bound, bound, 1e-4, evaluations);
+  if (slack <= 0.0) return scaling(best.x);
+  // The minimum is flat along the joints that matter little: within the slack, the smallest log cond(T) (the
+  // spread of log t, t_0 = 1 included), the excess over the slack penalised (docs/theory.md, "Similarity scaling").
+  const double limit = best.value * (1.0 + slack);
+  const Objective spread = [&](const Eigen::VectorXd& x) {
+    return std::max(0.0, x.maxCoeff()) - std::min(0.0, x.minCoeff()) + 1e3 * std::max(0.0, worst(x) - limit) / limit;
+  };
+  const OptimumPoint narrowest = minimize_nonsmooth(spread, best.x, -bound, bound, 1e-4, evaluations);
+  return scaling(worst(narrowest.x) <= limit ? narrowest.x : best.x);
 }
 
 namespace {

@@ -172,6 +172,24 @@ TEST(Spectrum, WeightedGershgorinBoundsEveryMemberFromBelow) {
   }
 }
 
+// Where the minimum is flat (two joints that no Φ couples), the slack picks the smallest cond(T) within it: Φ's
+// coupled block [[0, 4], [1, 0]] has ||T Φ T⁻¹|| = max(4 / t₂, t₂), 2 at t₂ = 2, and within 2 (1 + s) the
+// smallest spread of (1, t₂, t₃, t₄) is cond 2 / (1 + s), with t₃ and t₄ anywhere between.
+TEST(SimilarityScaling, TheSlackTakesTheSmallestConditionNumberWhereTheMinimumIsFlat) {
+  Eigen::MatrixXd Phi = Eigen::MatrixXd::Zero(4, 4);
+  Phi(0, 1) = 4.0;
+  Phi(1, 0) = 1.0;
+  Phi(2, 2) = Phi(3, 3) = 0.1;
+  const auto norm = [&](const Eigen::VectorXd& t) {
+    return obsgain::spectral_norm(t.asDiagonal() * Phi * t.cwiseInverse().asDiagonal());
+  };
+  EXPECT_NEAR(norm(obsgain::best_diagonal_scaling({Phi})), 2.0, 1e-6);
+  const double slack = obsgain::BoundOptions{}.scaling_slack;
+  const Eigen::VectorXd t = obsgain::best_diagonal_scaling({Phi}, slack);
+  EXPECT_LE(norm(t), 2.0 * (1.0 + slack) * (1.0 + 1e-12));
+  EXPECT_NEAR(t.maxCoeff() / t.minCoeff(), 2.0 / (1.0 + slack), 1e-3);
+}
+
 TEST(SimilarityScaling, ReachesTheAnalyticMinimumWhereNoDiagonalScalingHelps) {
   const double a = 4.0, kappa = 30.0;
   const Eigen::Vector2d u(std::sqrt(0.5), std::sqrt(0.5)), v(-std::sqrt(0.5), std::sqrt(0.5));

@@ -98,14 +98,23 @@ TEST(PendubotBrackets, SimilarityScalingIsProvenAndHoldsAtRandomPoints) {
   const Eigen::MatrixXd Phi = obsgain::perturbation_matrix(pendubot_model(), L.argmax, numeric.L_scaled.velocity_vertex,
                                                            numeric.L_scaled.saturation_pattern);
   EXPECT_NEAR(obsgain::spectral_norm(T * Phi * T_inverse), L.lower, 1e-9 * L.lower);
-  // A diagonal T (the search for seven joints and more than full_scaling_max_dof) finds the sampled study's.
+  // A diagonal T (the search for seven joints and more than full_scaling_max_dof) finds the sampled study's at the
+  // minimum; with the default slack, one nearer T = I (a smaller cond(T)) whose L_T is within the slack of it.
   obsgain::BoundOptions diagonal;
   diagonal.full_scaling_max_dof = 0;
+  diagonal.scaling_slack = 0.0;
   const obsgain::BoundReport d = obsgain::compute_bounds(pendubot_model(), Eigen::Vector2d(10, 10), diagonal);
   ASSERT_TRUE(d.scaled());
   EXPECT_TRUE(d.scaling.isDiagonal(0.0));
   EXPECT_NEAR(d.scaling(1, 1), 0.568, 0.002);
   EXPECT_NEAR(d.L_scaled.value, 35.6743, 1e-3);
+  diagonal.scaling_slack = obsgain::BoundOptions{}.scaling_slack;
+  const obsgain::BoundReport s = obsgain::compute_bounds(pendubot_model(), Eigen::Vector2d(10, 10), diagonal);
+  ASSERT_TRUE(s.scaled());
+  EXPECT_NEAR(s.scaling(1, 1), 0.5738, 1e-3);  // 0.568 at the minimum
+  EXPECT_GT(s.scaling(1, 1), d.scaling(1, 1));
+  EXPECT_GT(s.L_scaled.value, d.L_scaled.value);
+  EXPECT_LE(s.L_scaled.value, d.L_scaled.value * (1.0 + diagonal.scaling_slack));  // 35.6772
 }
 
 TEST(IntervalEnclosures, NormAndEigenvalueBoundsHoldForEveryMember) {
