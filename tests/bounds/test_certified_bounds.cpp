@@ -111,10 +111,10 @@ TEST(PendubotBrackets, SimilarityScalingIsProvenAndHoldsAtRandomPoints) {
   diagonal.scaling_slack = obsgain::BoundOptions{}.scaling_slack;
   const obsgain::BoundReport s = obsgain::compute_bounds(pendubot_model(), Eigen::Vector2d(10, 10), diagonal);
   ASSERT_TRUE(s.scaled());
-  EXPECT_NEAR(s.scaling(1, 1), 0.5738, 1e-3);  // 0.568 at the minimum
+  EXPECT_NEAR(s.scaling(1, 1), 0.6010, 1e-3);  // 0.568 at the minimum
   EXPECT_GT(s.scaling(1, 1), d.scaling(1, 1));
   EXPECT_GT(s.L_scaled.value, d.L_scaled.value);
-  EXPECT_LE(s.L_scaled.value, d.L_scaled.value * (1.0 + diagonal.scaling_slack));  // 35.6772
+  EXPECT_LE(s.L_scaled.value, d.L_scaled.value * (1.0 + diagonal.scaling_slack));  // 35.7542
 }
 
 TEST(IntervalEnclosures, NormAndEigenvalueBoundsHoldForEveryMember) {
