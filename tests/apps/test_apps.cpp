@@ -328,7 +328,7 @@ TEST(DesignGainsApp, AnUnfinishedBoundSearchExitsOneAndSaysWhatWouldHelp) {
 }
 
 // A proof far above the value attained is still a proof, but its cost is named: a warning gives the factor and what
-// narrows it. A converged bracket (the Pendubot's, 1e-6) gets none.
+// narrows it, for the constant the selected certificate rests on. A converged bracket (the Pendubot's, 1e-6) gets none.
 TEST(DesignGainsApp, AWideProvenBracketIsNamedInAWarning) {
   const std::string examples = OBSGAIN_EXAMPLES_DIR;
   const auto warnings = [](const AppRun& r) {
@@ -344,6 +344,19 @@ TEST(DesignGainsApp, AWideProvenBracketIsNamedInAWarning) {
   EXPECT_NE(wide.find("--bound-budget"), std::string::npos) << wide;
   const std::string converged = warnings(run("design-gains", "--robot pendubot --gamma 1.27 --quiet --json"));
   EXPECT_EQ(converged.find("times the value attained"), std::string::npos) << converged;
+  // Named scaled, with L_T's proof behind: the warning is L_T's.
+  const std::string scaled = warnings(run(
+      "design-gains", "--robot " + examples + "/arm3.urdf --gamma 5 --bound-budget 0.0001 --certificate scaled --quiet --json"));
+  EXPECT_NE(scaled.find("L_T's proven upper end"), std::string::npos) << scaled;
+  // The two-link arm at this budget: L_T wins the race and is proven within 2 % (7.982 against 7.825), while L_joint
+  // stopped after its first share at 8.8 times its value attained. The design rests on L_T: no warning.
+  const AppRun won = run("design-gains", "--robot " + examples + "/two_link_arm.json --gamma 5 --bound-budget 0.003 --quiet --json");
+  const std::string narrow = warnings(won);
+  const nlohmann::json j = nlohmann::json::parse(won.out);
+  EXPECT_EQ(j["certificate"], "scaled");
+  const nlohmann::json& joint = j["bounds"]["brackets"]["L_joint"];
+  EXPECT_GT(joint["upper"].get<double>(), 5.0 * joint["lower"].get<double>());
+  EXPECT_EQ(narrow.find("times the value attained"), std::string::npos) << narrow;
 }
 
 // On arm7 NLopt and Ipopt stop at different local maxima of B (12.20 and 12.39, measured): on numeric bounds, whose

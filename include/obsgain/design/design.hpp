@@ -35,7 +35,8 @@ struct DesignOptions {
   // The tight certificate's rate is a supremum; its matrix P is computed at γ_sup (1 - rate_margin), which
   // buys a finite, much smaller envelope constant k. A target-γ design raises θ so that γ itself is certified.
   double rate_margin = 0.01;
-  // A warning says what the proof costs when L_joint's proven upper end exceeds the value attained by this factor.
+  // A warning says what the proof costs when the proven upper end of the constant the selected certificate rests on
+  // (L_T for the scaled one, else L_joint) exceeds the value attained by this factor.
   double wide_bracket = 1.5;
   Eigen::VectorXd velocity_bounds;  // empty: the model's own
   // certified: interval branch and bound; a model that cannot be evaluated on intervals then gets an
