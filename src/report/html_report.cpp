@@ -13,6 +13,8 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <string>
+#include <utility>
 
 namespace obsgain {
 
@@ -258,6 +260,28 @@ std::string certificate_basis(const Design& d) {
                      escape(d.certificate == CertificateKind::scaled ? std::string("L_T") : d.L_source));
 }
 
+// The relative gap of the constant the selected norm-bound certificate rests on (L_T for the scaled one, L_joint for
+// the others on the computed L_joint), then the largest of all: a wide bracket the design does not use costs nothing.
+std::string bracket_gaps(const Design& d) {
+  const auto& b = d.bounds;
+  // (upper - lower) / upper, 1 for an upper end not yet finite (its limit).
+  const auto gap = [](const BoundBracket& k) {
+    return !std::isfinite(k.upper) ? 1.0 : k.upper > 0.0 ? (k.upper - k.lower) / k.upper : 0.0;
+  };
+  const std::pair<const char*, const BoundBracket*> brackets[] = {
+      {"M0", &b.M0_bracket}, {"B", &b.B_bracket}, {"L_joint", &b.L_joint_bracket}, {"L_T", &b.L_scaled_bracket}};
+  const std::pair<const char*, const BoundBracket*>* worst = &brackets[0];
+  for (const auto& k : brackets)
+    if (gap(*k.second) > gap(*worst->second)) worst = &k;
+  const std::string largest = fmt::format("largest relative gap {:.1e} ({})", gap(*worst->second), worst->first);
+  if (d.certificate == CertificateKind::polytopic || d.L_source != to_string(LipschitzKind::joint)) return largest;
+  const bool scaled = d.certificate == CertificateKind::scaled;
+  const std::string used = scaled ? "L_T" : "L_joint";
+  const std::string text = fmt::format("relative gap of {}, which the design uses, {:.1e}", used,
+                                       gap(scaled ? b.L_scaled_bracket : b.L_joint_bracket));
+  return worst->first == used ? text : text + "; " + largest;
+}
+
 // The verdict first: what is proven, with which gains, on which bounds, and what the simulations said.
 std::string verdict_section(const VerificationReport& r) {
   const Design& d = r.design.design;
@@ -265,10 +289,6 @@ std::string verdict_section(const VerificationReport& r) {
   const CertifiedObserver& o = d.selected().observer;
   const MonteCarloReport& mc = r.monte_carlo;
   const bool proven = o.certified && d.proven();
-  double worst_gap = 0.0;
-  if (b.certified)
-    for (const BoundBracket* k : {&b.M0_bracket, &b.B_bracket, &b.L_joint_bracket, &b.L_scaled_bracket})
-      if (k->upper > 0.0) worst_gap = std::max(worst_gap, (k->upper - k->lower) / k->upper);
   std::ostringstream h;
   h << "<div style='border:2px solid " << (proven ? "#060" : "#a00") << ";padding:.5em 1em;margin:1em 0'>\n<p>"
     << verdict_line(d) << "</p>\n";
@@ -279,8 +299,7 @@ std::string verdict_section(const VerificationReport& r) {
   h << "<p>Gains k1 = " << number(o.k1) << ", k2 = " << number(o.k2) << " (θ = "
     << number(o.theta) << ", α = " << number(d.alpha) << ", β = " << number(d.beta) << "), " << certificate_basis(d)
     << ". Bounds: "
-    << (b.certified ? fmt::format("proven by interval branch and bound, largest relative gap {:.1e}", worst_gap)
-                    : std::string("numeric estimates (not proven)"))
+    << (b.certified ? "proven by interval branch and bound, " + bracket_gaps(d) : std::string("numeric estimates (not proven)"))
     << ".</p>\n<p>Monte Carlo: "
     << (!mc.not_run.empty() ? "<span class='bad'>" + escape(mc.not_run) + "</span>.</p>\n"
         : fmt::format("{} trials, {}, {} left the velocity box.</p>\n", mc.trials,

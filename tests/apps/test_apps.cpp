@@ -457,8 +457,10 @@ TEST(VerifyBoundsApp, WritesTheReportWithCertifiedBrackets) {
   std::size_t reached = 0;
   for (auto at = html.find(reached_cell); at != std::string::npos; at = html.find(reached_cell, at + 1)) ++reached;
   EXPECT_EQ(reached, 4u);
-  // The default design is the scaled one: the LMI line is its own check, not the tight certificate's.
+  // The default design is the scaled one: the LMI line is its own check, not the tight certificate's, and the verdict
+  // gives the gap of the constant it rests on.
   EXPECT_NE(html.find("The scaled certificate's LMI largest eigenvalue -"), std::string::npos);
+  EXPECT_NE(html.find("relative gap of L_T, which the design uses, "), std::string::npos);
   // Four plots inline; nothing loaded from outside (the SVG namespace URIs load nothing).
   std::size_t svgs = 0;
   for (auto at = html.find("<svg"); at != std::string::npos; at = html.find("<svg", at + 1)) ++svgs;
@@ -467,6 +469,21 @@ TEST(VerifyBoundsApp, WritesTheReportWithCertifiedBrackets) {
     EXPECT_EQ(html.find(external), std::string::npos) << external;
   for (const char* csv : {"bound_curves.csv", "paper_scenario.csv", "monte_carlo_errors.csv", "rate_vs_theta.csv"})
     EXPECT_FALSE(read_text(out + "/" + csv).empty()) << csv;
+}
+
+// The verdict gives the gap of the constant the design rests on, then the largest: on the two-link arm at this budget
+// L_T wins the race within 2 % while L_joint stopped after its first share, and M0 (which only L_paper uses) has no
+// finite upper end yet (a relative gap of 1, its limit). No warning of a wide bracket: the one used is narrow.
+TEST(VerifyBoundsApp, TheVerdictGivesTheGapOfTheConstantTheDesignUses) {
+  const std::string out = ::testing::TempDir() + "/obsgain_verify_gap";
+  const AppRun r = run("verify-bounds", "--robot " + std::string(OBSGAIN_EXAMPLES_DIR) +
+                                            "/two_link_arm.json --gamma 5 --bound-budget 0.003 --trials 4 --quiet --out " + out);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string html = read_text(out + "/report.html");
+  EXPECT_NE(html.find("relative gap of L_T, which the design uses, 2.0e-02; largest relative gap 1.0e+00 (M0)."),
+            std::string::npos);
+  EXPECT_EQ(html.find("times the value attained"), std::string::npos);
+  EXPECT_EQ(read_json(out + "/report.json")["certificate"], "scaled");
 }
 
 // Also: with --optimize-shape the report says how α was chosen, as the table does.
