@@ -300,6 +300,12 @@ PolytopicSearch polytopic_search_for(const Model& model, const Design& design, c
 
 const char* to_string(LipschitzKind kind) { return kind == LipschitzKind::paper ? "paper" : "joint"; }
 
+Design::UsedConstant Design::used_constant() const {
+  if (certificate == CertificateKind::polytopic || L_source != to_string(LipschitzKind::joint)) return {};
+  if (certificate == CertificateKind::scaled) return {"L_T", &bounds.L_scaled_bracket};
+  return {"L_joint", &bounds.L_joint_bracket};
+}
+
 void validate_design_options(const DesignOptions& options) {
   if (options.gamma.has_value() == options.theta.has_value())
     throw InputError("give exactly one of --gamma (target rate) and --theta (gain to evaluate)");
@@ -421,16 +427,14 @@ void reshape_for_fall_back(Design& d, const DesignOptions& options) {
 // selected certificate rests on, L_T for the scaled one and L_joint for the others (not for a proven polytopic one,
 // which rests on its polytope).
 void name_a_wide_bracket(Design& d, const DesignOptions& options) {
-  if (!d.bounds.certified || options.L_override || options.lipschitz != LipschitzKind::joint ||
-      d.certificate == CertificateKind::polytopic)
-    return;
-  const bool scaled = d.certificate == CertificateKind::scaled;
-  const BoundBracket& bracket = scaled ? d.bounds.L_scaled_bracket : d.bounds.L_joint_bracket;
+  const Design::UsedConstant used = d.used_constant();
+  if (!d.bounds.certified || !used.bracket) return;
+  const BoundBracket& bracket = *used.bracket;
   if (!(bracket.lower > 0.0 && bracket.upper > options.wide_bracket * bracket.lower)) return;
   d.warnings.push_back(fmt::format(
       "{}'s proven upper end {:.6g} is {:.3g} times the value attained ({:.6g}): the certified gains pay for that gap "
       "(a larger --bound-budget narrows it{})",
-      scaled ? "L_T" : "L_joint", bracket.upper, bracket.upper / bracket.lower, bracket.lower,
+      used.name, bracket.upper, bracket.upper / bracket.lower, bracket.lower,
       d.armature.isZero(0.0) ? "; real arms have rotor inertia: --armature" : ""));
 }
 

@@ -260,8 +260,8 @@ std::string certificate_basis(const Design& d) {
                      escape(d.certificate == CertificateKind::scaled ? std::string("L_T") : d.L_source));
 }
 
-// The relative gap of the constant the selected norm-bound certificate rests on (L_T for the scaled one, L_joint for
-// the others on the computed L_joint), then the largest of all: a wide bracket the design does not use costs nothing.
+// The relative gap of the constant the selected certificate rests on (Design::used_constant), then the largest of all:
+// a wide bracket the design does not use costs nothing.
 std::string bracket_gaps(const Design& d) {
   const auto& b = d.bounds;
   // (upper - lower) / upper, 1 for an upper end not yet finite (its limit).
@@ -274,12 +274,10 @@ std::string bracket_gaps(const Design& d) {
   for (const auto& k : brackets)
     if (gap(*k.second) > gap(*worst->second)) worst = &k;
   const std::string largest = fmt::format("largest relative gap {:.1e} ({})", gap(*worst->second), worst->first);
-  if (d.certificate == CertificateKind::polytopic || d.L_source != to_string(LipschitzKind::joint)) return largest;
-  const bool scaled = d.certificate == CertificateKind::scaled;
-  const std::string used = scaled ? "L_T" : "L_joint";
-  const std::string text = fmt::format("relative gap of {}, which the design uses, {:.1e}", used,
-                                       gap(scaled ? b.L_scaled_bracket : b.L_joint_bracket));
-  return worst->first == used ? text : text + "; " + largest;
+  const Design::UsedConstant used = d.used_constant();
+  if (!used.bracket) return largest;
+  const std::string text = fmt::format("relative gap of {}, which the design uses, {:.1e}", used.name, gap(*used.bracket));
+  return used.bracket == worst->second ? text : text + "; " + largest;
 }
 
 // The verdict first: what is proven, with which gains, on which bounds, and what the simulations said.

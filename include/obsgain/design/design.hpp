@@ -132,6 +132,15 @@ struct Design {
 
   bool proven() const { return not_proven_reason.empty(); }
 
+  // The computed constant the selected certificate rests on, with its bracket: L_T for the scaled certificate, L_joint
+  // for the tight and paper ones on the computed L_joint; none (bracket null) for a polytopic certificate, which rests
+  // on its polytope or proof, for L_paper and for the user's L.
+  struct UsedConstant {
+    const char* name = nullptr;
+    const BoundBracket* bracket = nullptr;
+  };
+  UsedConstant used_constant() const;
+
   const CertificateSummary& selected() const {
     if (certificate == CertificateKind::polytopic && polytopic) return *polytopic;
     if (certificate == CertificateKind::scaled && scaled) return *scaled;
