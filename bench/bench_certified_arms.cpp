@@ -1,7 +1,7 @@
 // The arms people own, certified: for each arm, `design-gains --robot FILE --gamma 5` with numeric bounds (the
 // optimisers' lower estimates) and with certified bounds at the default budget (120 reference seconds), printed as
 // the Markdown table of docs/theory.md ("Certified bounds on the arms"), with the bracket of the constant the
-// certified design rests on (L_T's where the scaled certificate is chosen). About 20 minutes on 2 cores.
+// certified design rests on (L_T's where the scaled certificate is chosen). About 25 minutes on 2 cores.
 // Run: build/bench/bench_certified_arms [BUDGET_SECONDS]
 #include "obsgain/design/design.hpp"
 #include "obsgain/parsers/robots.hpp"
@@ -52,6 +52,8 @@ int main(int argc, char** argv) {
       {"Panda as published", examples + "/panda.urdf", {}},
       {"Panda, armature 0.1", examples + "/panda.urdf", std::vector<double>(7, 0.1)},
       {"iiwa 14, Drake's rotor inertia", examples + "/iiwa14.urdf", {}},
+      {"Jaco2 as published", examples + "/jaco2.urdf", {}},
+      {"Jaco2, armature 0.1", examples + "/jaco2.urdf", std::vector<double>(6, 0.1)},
   };
   fmt::print("budget {} reference seconds\n\n", budget);
   fmt::print("| arm | numeric: θ (time) | certified: θ (time) | θ ratio | L used: attained | certified bracket upper (gap) |\n");

@@ -1,6 +1,6 @@
 // The chain dynamics (composite-rigid-body and bilinear Newton–Euler, templated on the scalar) against KDL, an
 // independent implementation; and the URDF quirks of real arms (fixed frames, fixed side
-// branches, grippers with mimic fingers, Drake transmissions).
+// branches, grippers with mimic fingers, a published hand's revolute fingers, Drake transmissions).
 #include "test_files.hpp"
 #include "obsgain/design/design.hpp"
 #include "obsgain/parsers/robots.hpp"
@@ -10,10 +10,12 @@
 #include <gtest/gtest.h>
 #include <kdl/chaindynparam.hpp>
 #include <kdl/tree.hpp>
+#include <kdl/treeidsolver_recursive_newton_euler.hpp>
 #include <kdl_parser/kdl_parser.hpp>
 #include <urdf_parser/urdf_parser.h>
 
 #include <fstream>
+#include <map>
 #include <numbers>
 #include <random>
 #include <sstream>
@@ -39,11 +41,30 @@ struct KdlReference {
   }
 };
 
-class ChainAgainstKdl : public ::testing::TestWithParam<std::pair<const char*, const char*>> {};
+// A shipped file, KDL's tip, and where to cut the file's text (empty: nowhere): KDL's chain has no side branches,
+// so an arm whose hand carries fingers is compared without them (their lumping: UrdfQuirks below).
+struct KdlCase {
+  const char* file;
+  const char* tip;
+  const char* branches_from = "";
+};
+
+// The file, or its text up to `branches_from` closed as a robot, written apart.
+std::string kdl_case_path(const KdlCase& c) {
+  const std::string path = examples + "/" + c.file;
+  if (std::string(c.branches_from).empty()) return path;
+  const std::string text = read_text(path);
+  const std::size_t cut = text.find(c.branches_from);
+  EXPECT_NE(cut, std::string::npos) << c.branches_from;
+  return write_temp_file(std::string("without_branches_") + c.file, text.substr(0, cut) + "</robot>\n");
+}
+
+class ChainAgainstKdl : public ::testing::TestWithParam<KdlCase> {};
 
 TEST_P(ChainAgainstKdl, MassCoriolisAndGravityAgreeTo1e12) {
-  const auto [file, tip] = GetParam();
-  const std::string path = examples + "/" + file;
+  const char* file = GetParam().file;
+  const char* tip = GetParam().tip;
+  const std::string path = kdl_case_path(GetParam());
   // KDL knows no rotor inertia: compare the rigid bodies alone.
   const int dof = obsgain::load_robot({path}).dof();
   const obsgain::Model model = obsgain::load_robot({path, "", "", {}, std::vector<double>(dof, 0.0)});
@@ -75,10 +96,13 @@ TEST_P(ChainAgainstKdl, MassCoriolisAndGravityAgreeTo1e12) {
 }
 
 INSTANTIATE_TEST_SUITE_P(ShippedArms, ChainAgainstKdl,
-                         ::testing::Values(std::pair{"pendubot.urdf", "link2"}, std::pair{"arm3.urdf", "forearm"},
-                                           std::pair{"arm6.urdf", "wrist_3_link"}, std::pair{"arm7.urdf", "link7"}),
+                         ::testing::Values(KdlCase{"pendubot.urdf", "link2"}, KdlCase{"arm3.urdf", "forearm"},
+                                           KdlCase{"arm6.urdf", "wrist_3_link"}, KdlCase{"arm7.urdf", "link7"},
+                                           // Kinova's description: its wrist's 60° joints, rotations of 3.1415 rad
+                                           KdlCase{"jaco2.urdf", "j2n6s300_link_6",
+                                                   "<joint name=\"j2n6s300_joint_finger_1\""}),
                          [](const auto& info) {
-                           const std::string file = info.param.first;
+                           const std::string file = info.param.file;
                            return file.substr(0, file.find('.'));
                          });
 
@@ -154,6 +178,73 @@ std::string hand_summed_urdf() {
   const auto l2_end = text.find("</link>", l2_begin) + 7;
   text.replace(l2_begin, l2_end - l2_begin, l2);
   return text;
+}
+
+// KDL's inverse dynamics of the whole tree, `locked` joints held at their positions and at rest: the torques at the
+// other joints, in `joints` order, for (q, v, a) and gravity `g`.
+struct KdlTree {
+  KDL::Tree tree;
+  std::map<std::string, unsigned> index;  // joint name -> KDL's q number
+  explicit KdlTree(const std::string& path) {
+    const urdf::ModelInterfaceSharedPtr robot = urdf::parseURDF(read_text(path));
+    robot->root_link_->inertial.reset();
+    EXPECT_TRUE(kdl_parser::treeFromUrdfModel(*robot, tree));
+    for (const auto& [name, element] : tree.getSegments())
+      if (GetTreeElementSegment(element).getJoint().getType() != KDL::Joint::None)
+        index[GetTreeElementSegment(element).getJoint().getName()] = GetTreeElementQNr(element);
+  }
+  Eigen::VectorXd torques(const std::vector<std::string>& joints, const std::map<std::string, double>& locked,
+                          const Eigen::VectorXd& q, const Eigen::VectorXd& v, const Eigen::VectorXd& a, double g) {
+    const unsigned all = tree.getNrOfJoints();
+    KDL::JntArray Q(all), V(all), A(all), tau(all);
+    for (const auto& [name, position] : locked) Q(index.at(name)) = position;
+    for (std::size_t j = 0; j < joints.size(); ++j) {
+      Q(index.at(joints[j])) = q(static_cast<Eigen::Index>(j));
+      V(index.at(joints[j])) = v(static_cast<Eigen::Index>(j));
+      A(index.at(joints[j])) = a(static_cast<Eigen::Index>(j));
+    }
+    KDL::TreeIdSolver_RNE solver(tree, KDL::Vector(0.0, 0.0, -g));
+    EXPECT_GE(solver.CartToJnt(Q, V, A, KDL::WrenchMap{}, tau), 0);
+    Eigen::VectorXd out(static_cast<Eigen::Index>(joints.size()));
+    for (std::size_t j = 0; j < joints.size(); ++j) out(static_cast<Eigen::Index>(j)) = tau(index.at(joints[j]));
+    return out;
+  }
+};
+
+TEST(UrdfQuirks, TheJacosFingersAreLumpedAsKdlsTreeMovesThemLocked) {
+  // Kinova's description carries three revolute fingers on the hand, without <mimic>: the loader locks them at the
+  // middle of their range (1 rad) and lumps them into the hand. KDL's tree solver, which moves every body of the tree,
+  // must give the same M, C(q, v) v and g at the arm's joints with the fingers held there. Without the fingers the
+  // hand would differ by 0.1 in M (the ChainAgainstKdl case above compares the arm without them).
+  const std::string path = examples + "/jaco2.urdf";
+  const obsgain::Model model = obsgain::load_robot({path, "", "", {}, std::vector<double>(6, 0.0)});
+  ASSERT_EQ(model.dof(), 6);
+  std::vector<std::string> joints;
+  for (int j = 1; j <= 6; ++j) joints.push_back(fmt::format("j2n6s300_joint_{}", j));
+  std::map<std::string, double> fingers;
+  for (int k = 1; k <= 3; ++k) fingers[fmt::format("j2n6s300_joint_finger_{}", k)] = 1.0;
+  KdlTree kdl(path);
+  std::mt19937_64 rng(23);
+  std::uniform_real_distribution<double> angle(-std::numbers::pi, std::numbers::pi), speed(-1.0, 1.0);
+  const Eigen::VectorXd zero = Eigen::VectorXd::Zero(6);
+  for (int trial = 0; trial < 10; ++trial) {
+    Eigen::VectorXd q(6), v(6);
+    for (int i = 0; i < 6; ++i) {
+      q(i) = angle(rng);
+      v(i) = speed(rng);
+    }
+    Eigen::MatrixXd M(6, 6), M_kdl(6, 6);
+    obsgain::mass_matrix(model, q, M);
+    for (int j = 0; j < 6; ++j) M_kdl.col(j) = kdl.torques(joints, fingers, q, zero, Eigen::VectorXd::Unit(6, j), 0.0);
+    EXPECT_LE((M - M_kdl).norm(), 1e-12 * M_kdl.norm());
+    Eigen::VectorXd A(6), g(6);
+    obsgain::coriolis(model, q, v, A);
+    const Eigen::VectorXd A_kdl = kdl.torques(joints, fingers, q, v, zero, 0.0);
+    EXPECT_LE((A - A_kdl).norm(), 1e-12 * (A_kdl.norm() + M.norm()));
+    obsgain::gravity(model, q, g);
+    const Eigen::VectorXd g_kdl = kdl.torques(joints, fingers, q, zero, zero, 9.81);
+    EXPECT_LE((g - g_kdl).norm(), 1e-12 * (g_kdl.norm() + 1.0));
+  }
 }
 
 TEST(UrdfQuirks, FixedFramesSideBranchesAndMimicFingersAreLumpedIntoOneBody) {
