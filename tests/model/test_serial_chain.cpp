@@ -49,6 +49,9 @@ struct KdlCase {
   const char* branches_from = "";
 };
 
+// Named by its file in the test's output.
+void PrintTo(const KdlCase& c, std::ostream* out) { *out << c.file; }
+
 // The file, or its text up to `branches_from` closed as a robot, written apart.
 std::string kdl_case_path(const KdlCase& c) {
   const std::string path = examples + "/" + c.file;
