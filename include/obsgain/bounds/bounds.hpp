@@ -20,7 +20,7 @@ namespace obsgain {
 struct BoundOptions {
   int global_evaluations_per_dimension = 1500;  // DIRECT-L budget per searched joint
   // Ipopt starts: the global argmax plus the best sample points. 8: with 3 the Jaco2 with armature's L_joint estimate
-  // ended 3.5 % below what 6 or more starts reach, arm7's and the Panda's with armature 0.16 and 0.2 %; with 12 none
+  // ended 3.4 % below what 6 or more starts reach, arm7's and the Panda's with armature 0.16 and 0.2 %; with 12 none
   // rose further, and each start costs a local solve (docs/theory.md, "The constants").
   int polish_starts = 8;
   int samples_per_dimension = 64;               // sample points that seed the extra polish starts
