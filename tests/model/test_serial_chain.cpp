@@ -27,16 +27,22 @@ using obsgain_test::write_temp_file;
 
 using obsgain_test::examples;
 
+// KDL's tree of the file.
+KDL::Tree kdl_tree(const std::string& path) {
+  const urdf::ModelInterfaceSharedPtr robot = urdf::parseURDF(read_text(path));
+  robot->root_link_->inertial.reset();  // the fixed world; kdl_parser would only warn about it
+  KDL::Tree tree;
+  EXPECT_TRUE(kdl_parser::treeFromUrdfModel(*robot, tree));
+  return tree;
+}
+
 // KDL's chain from the file's root to `tip`, gravity -9.81 z.
 struct KdlReference {
   KDL::Tree tree;
   KDL::Chain chain;
   std::unique_ptr<KDL::ChainDynParam> solver;
-  KdlReference(const std::string& path, const std::string& tip) {
-    const urdf::ModelInterfaceSharedPtr robot = urdf::parseURDF(read_text(path));
-    robot->root_link_->inertial.reset();  // the fixed world; kdl_parser would only warn about it
-    EXPECT_TRUE(kdl_parser::treeFromUrdfModel(*robot, tree));
-    EXPECT_TRUE(tree.getChain(robot->getRoot()->name, tip, chain));
+  KdlReference(const std::string& path, const std::string& tip) : tree(kdl_tree(path)) {
+    EXPECT_TRUE(tree.getChain(tree.getRootSegment()->first, tip, chain));
     solver = std::make_unique<KDL::ChainDynParam>(chain, KDL::Vector(0.0, 0.0, -9.81));
   }
 };
@@ -188,10 +194,7 @@ std::string hand_summed_urdf() {
 struct KdlTree {
   KDL::Tree tree;
   std::map<std::string, unsigned> index;  // joint name -> KDL's q number
-  explicit KdlTree(const std::string& path) {
-    const urdf::ModelInterfaceSharedPtr robot = urdf::parseURDF(read_text(path));
-    robot->root_link_->inertial.reset();
-    EXPECT_TRUE(kdl_parser::treeFromUrdfModel(*robot, tree));
+  explicit KdlTree(const std::string& path) : tree(kdl_tree(path)) {
     for (const auto& [name, element] : tree.getSegments())
       if (GetTreeElementSegment(element).getJoint().getType() != KDL::Joint::None)
         index[GetTreeElementSegment(element).getJoint().getName()] = GetTreeElementQNr(element);
