@@ -39,10 +39,10 @@ void weigh_sides(const TaylorMatrix& X, const BoxForms& d, std::vector<double>& 
   std::vector<double> variation(d.sides.size(), 0.0);  // of each side, over its symbols
   // Symbols beyond the box's (velocity components carried as symbols) belong to no side.
   const auto side = [&](int symbol) { return symbol < d.symbols ? d.side_of[static_cast<std::size_t>(symbol)] : -1; };
-  for (std::size_t k = 0; k < X.slopes.size(); ++k)
-    if (side(static_cast<int>(k)) >= 0) variation[side(static_cast<int>(k))] += X.slopes[k].norm();
+  for (int k = 0; k < X.symbols(); ++k)
+    if (side(k) >= 0) variation[side(k)] += X.slope(k).norm();
   for (std::size_t p = 0; p < pairs.size(); ++p) {
-    const double h = X.curvatures[p].norm();
+    const double h = X.curvature(static_cast<int>(p)).norm();
     const int first = side(pairs[p].first), second = side(pairs[p].second);
     if (first >= 0) variation[first] += h;
     if (second >= 0 && second != first) variation[second] += h;
@@ -129,7 +129,7 @@ double route_at_least(const FloorRoute& route, const BoxForms& d, const std::vec
   Eigen::MatrixXd C(d.n * d.n, d.n);
   double remainders = 0.0;
   for (int j = 0; j < d.n; ++j) {
-    C.col(j) = (G * J[j].centre * G).reshaped();
+    C.col(j) = (G * J[j].centre() * G).reshaped();
     remainders += V(j) * J[j].remainder * route.g.maxCoeff() * route.g.maxCoeff();
   }
   const Eigen::MatrixXd gram = C.transpose() * C;
@@ -162,8 +162,8 @@ std::vector<FloorRoute> floor_routes(const Model& model, double floor, const std
 class PatternColumns {
  public:
   PatternColumns(const TaylorMatrix& A, const TaylorMatrix& R) : remainder_(A.remainder + R.remainder) {
-    on_.resize(A.parts(), A.centre.cols());
-    off_.resize(A.parts(), A.centre.cols());
+    on_.resize(A.parts(), A.cols());
+    off_.resize(A.parts(), A.cols());
     for (int t = 0; t < A.parts(); ++t) {
       on_.row(t) = (A.part(t) + R.part(t)).colwise().norm();
       off_.row(t) = R.part(t).colwise().norm();
@@ -416,10 +416,10 @@ struct CentreGram {
 // (norm_upper) only when the centre's norm plus the variation may beat it.
 double patterns_upper(const TaylorMatrix& A, double A_frobenius, const TaylorMatrix& R, double floor,
                       const BoxCosts& costs, double& work) {
-  const auto n = static_cast<int>(A.centre.cols());
-  const double size = A.centre.norm() + R.centre.norm();
-  const CentreGram g{A.centre.transpose() * A.centre, A.centre.transpose() * R.centre, size * size};
-  const Eigen::MatrixXd RR = R.centre.transpose() * R.centre;
+  const auto n = static_cast<int>(A.cols());
+  const double size = A.centre().norm() + R.centre().norm();
+  const CentreGram g{A.centre().transpose() * A.centre(), A.centre().transpose() * R.centre(), size * size};
+  const Eigen::MatrixXd RR = R.centre().transpose() * R.centre();
   const PatternColumns columns(A, R);
   std::vector<Choice> choices;
   for (unsigned bits = 0; bits < (1u << n); ++bits) {
@@ -465,7 +465,7 @@ std::vector<bool> symbolic_velocities(const std::vector<TaylorMatrix>& A, const 
   for (std::size_t j = 0; j < A.size(); ++j) {
     const double Vj = V(static_cast<Eigen::Index>(j));
     influence[j] = Vj * A_frobenius[j];
-    variation += Vj * std::max(0.0, A_frobenius[j] - A[j].centre.norm());
+    variation += Vj * std::max(0.0, A_frobenius[j] - A[j].centre().norm());
   }
   const double largest = *std::max_element(influence.begin(), influence.end());
   std::vector<bool> free(influence.size());
@@ -512,7 +512,7 @@ double choices_upper(const LipschitzTerms& t, const BoxForms& d, const VelocityC
     e.Aw_frobenius = e.Aw.frobenius_upper();
     weigh_sides(e.Aw, d, weights);
     e.envelope = v.frictionless ? e.Aw : pattern_envelope(e.Aw, R, e.Aw_frobenius + R_frobenius);
-    const double centre = e.envelope.centre.norm(), cheap = e.envelope.frobenius_upper();
+    const double centre = e.envelope.centre().norm(), cheap = e.envelope.frobenius_upper();
     choices.push_back({cheap, cheap - centre, static_cast<unsigned>(vertices.size()), 0u});
     vertices.push_back(std::move(e));
   }
@@ -520,31 +520,23 @@ double choices_upper(const LipschitzTerms& t, const BoxForms& d, const VelocityC
   const BoxCosts costs = box_costs(d.n, R.symbols(), v.frictionless);
   work += static_cast<double>(choices.size()) * costs.vertex;
   int refined = 0, full = 0;
-  const double R_centre = spectral_norm(t.R.centre);
+  const double R_centre = spectral_norm(t.R.centre());
   const double upper = refine_choices(choices, lower, [&](const Choice& choice, double floor) {
     const VertexEnvelope& e = vertices[choice.vertex];
-    const Eigen::MatrixXd& C = e.envelope.centre;
+    const TaylorMatrix::ConstPart C = e.envelope.centre();
     const double size = C.norm();
     if (centre_norm_below(C.transpose() * C, floor - choice.variation, size * size)) return floor;
     ++full;
     const double fine = norm_upper(e.envelope, floor);
     if (v.frictionless || fine <= floor) return fine;
-    const double sigma = spectral_norm(C), added = R_centre * R_centre / (2.0 * spectral_norm(e.Aw.centre + t.R.centre));
+    const double sigma = spectral_norm(C);
+    const double added = R_centre * R_centre / (2.0 * spectral_norm(e.Aw.centre() + t.R.centre()));
     if (added < 0.1 * (fine - sigma)) return fine;
     return std::min(fine, patterns_upper(e.Aw, e.Aw_frobenius, R, floor, costs, work));
   }, refined);
   // A centre test per vertex refined; an envelope (2n x n with friction) costs two n x n refinements.
   work += refined * costs.choice + full * costs.refinement * (v.frictionless ? 1.0 : 2.0);
   return upper;
-}
-
-// The same zero matrix as X, over X's symbols.
-TaylorMatrix zero_like(const TaylorMatrix& X) {
-  TaylorMatrix Z;
-  Z.centre = Eigen::MatrixXd::Zero(X.centre.rows(), X.centre.cols());
-  Z.slopes.assign(X.slopes.size(), Z.centre);
-  Z.curvatures.assign(X.curvatures.size(), Z.centre);
-  return Z;
 }
 
 // A full similarity (lipschitz_terms): T Φ T⁻¹ = ((Σ_j w_j Ã_j) D Y + R̃)(T Y)⁻¹, every vertex and pattern bounded
@@ -557,7 +549,7 @@ double similar_choices_upper(const LipschitzTerms& t, const Eigen::MatrixXd& Y, 
       enumerated_vertices(v.velocity_bounds, std::vector<bool>(t.A.size(), false), v.frictionless);
   const UpwardRounding upward;
   const double Y_frobenius = (Interval(Y.norm()) * Interval(1.0 + 1e-15)).upper(), R_frobenius = t.R.frobenius_upper();
-  const TaylorMatrix zero = zero_like(t.R);
+  const TaylorMatrix zero(t.R.rows(), t.R.cols(), t.R.symbols());
   std::vector<TaylorMatrix> Aw;
   std::vector<Choice> choices;
   for (const Eigen::VectorXd& w : ws) {
@@ -630,10 +622,12 @@ BoxBound BoxBounds::joint_lipschitz(const std::vector<Interval>& box, double low
   const UpwardRounding upward;
   const bool full = scaling_ && !scaling_->diagonal;
   // With a full T: ||(Σ w_j Ã_j D) Y + R̃||_F <= ||Σ w_j Ã_j D||_F ||Y||_F + ||R̃||_F.
-  const double every_choice =
-      full ? (Interval(every_choice_upper(t.A, velocity_bounds_, zero_like(t.R))) * Interval(scaling.columns.norm() * (1.0 + 1e-15)) +
-              Interval(t.R.frobenius_upper())).upper()
-           : every_choice_upper(t.A, velocity_bounds_, t.R);
+  const auto every_similar_choice = [&] {
+    const TaylorMatrix zero(t.R.rows(), t.R.cols(), t.R.symbols());
+    const Interval stretch(scaling.columns.norm() * (1.0 + 1e-15));
+    return (Interval(every_choice_upper(t.A, velocity_bounds_, zero)) * stretch + Interval(t.R.frobenius_upper())).upper();
+  };
+  const double every_choice = full ? every_similar_choice() : every_choice_upper(t.A, velocity_bounds_, t.R);
   BoxBound bound{0.0, {}, costs.forms + costs.products};
   // A diagonal T's tail with T inside, where the stretched one is a tenth of the bound or more.
   if (scaling_ && scaling_->diagonal && t.tail > 0.1 * (every_choice + t.tail)) {
@@ -673,8 +667,8 @@ PolytopeCell BoxBounds::perturbation_cell(const std::vector<Interval>& box) cons
   cell.box = box;
   if (!inverse_M.proven) return cell;
   const LipschitzTerms t = lipschitz_terms(model_, d, unit_jacobians(d), velocity_bounds_, inverse_M);
-  cell.constant = -t.R.centre;
-  for (const TaylorMatrix& A : t.A) cell.slopes.push_back(-A.centre);
+  cell.constant = -t.R.centre();
+  for (const TaylorMatrix& A : t.A) cell.slopes.push_back(-A.centre());
   const UpwardRounding upward;
   // M⁻¹'s tail adds a matrix of norm <= t.tail to Φ, hence at most t.tail to every entry.
   cell.radius = (t.R.spread().array() + t.tail).matrix();

@@ -53,7 +53,9 @@ std::pair<Taylor, Taylor> arc_trigonometry(const BoxSide& side) {
 template <class S>
 std::unique_ptr<ChainKinematics<S>> box_kinematics(const SerialChain& chain, const std::vector<S>& q, const BoxForms& f,
                                                   const std::vector<int>& joints) {
-  auto k = std::make_unique<ChainKinematics<S>>();  // kilobytes per scalar: not on the stack
+  // Kilobytes per scalar: not on the stack. Default-initialised (not make_unique's value-initialisation, which would
+  // zero the whole object first, hundreds of kilobytes per box): the scalars' own constructors make them zero.
+  std::unique_ptr<ChainKinematics<S>> k(new ChainKinematics<S>);
   chain_kinematics(chain, q.data(), *k);
   for (std::size_t side = 0; side < f.sides.size(); ++side) {
     if (f.sides[side].arc_symbol < 0) continue;

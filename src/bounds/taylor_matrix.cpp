@@ -17,13 +17,18 @@ double gamma(int n) { return (n + 2) * kTaylorRoundoff * 1.01; }
 // An upper bound of a non-negative quantity computed in floating point by a short sequence of operations.
 double up(double x) { return x * kTaylorInflation + kTaylorUnderflow; }
 
-double frobenius(const Eigen::MatrixXd& X) { return up(std::sqrt(up(X.squaredNorm()))); }
+// Templates rather than Eigen::Ref: a Ref may have any column stride, and Eigen then sums column by column, in another
+// order than over a matrix's entries at once.
+template <class Derived>
+double frobenius(const Eigen::MatrixBase<Derived>& X) { return up(std::sqrt(up(X.squaredNorm()))); }
 
 // ||X Y - fl(X Y)||_F for a product computed in double: <= γ_n || |X| |Y| ||_F <= γ_n ||X||_F ||Y||_F.
-double product_rounding(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y) {
+template <class Left, class Right>
+double product_rounding(const Eigen::MatrixBase<Left>& X, const Eigen::MatrixBase<Right>& Y) {
   return up(gamma(static_cast<int>(X.cols())) * frobenius(X) * frobenius(Y));
 }
-double product_rounding(const Eigen::MatrixXd& X, double Y_frobenius) {
+template <class Derived>
+double product_rounding(const Eigen::MatrixBase<Derived>& X, double Y_frobenius) {
   return up(gamma(static_cast<int>(X.cols())) * frobenius(X) * Y_frobenius);
 }
 
@@ -69,46 +74,58 @@ std::vector<std::pair<int, int>> symbol_pairs(int symbols) {
 
 int pair_index(int k, int l) { return k <= l ? l * (l + 1) / 2 + k : k * (k + 1) / 2 + l; }
 
+void TaylorMatrix::resize(Eigen::Index rows, Eigen::Index cols, int symbols) {
+  shape(rows, cols, symbols);
+  coefficients_.setZero();
+}
+
+void TaylorMatrix::shape(Eigen::Index rows, Eigen::Index cols, int symbols) {
+  rows_ = rows;
+  cols_ = cols;
+  symbols_ = symbols;
+  stride_ = (rows * cols + 1) / 2 * 2;
+  coefficients_.resize(stride_ * parts());
+  // The padding stays zero, so that operations on many parts at once (parts(first, count)) leave it zero.
+  if (stride_ != rows * cols)
+    for (int t = 0; t < parts(); ++t) coefficients_(t * stride_ + stride_ - 1) = 0.0;
+}
+
 double TaylorMatrix::frobenius_upper() const {
-  double bound = frobenius(centre) + remainder;
-  for (const auto& G : slopes) bound += frobenius(G);
-  for (const auto& H : curvatures) bound += frobenius(H);
+  double bound = frobenius(centre()) + remainder;
+  for (int t = 1; t < parts(); ++t) bound += frobenius(part(t));
   return up(bound);
 }
 
 Eigen::MatrixXd TaylorMatrix::spread() const {
   const UpwardRounding upward;  // sums of non-negative terms, rounded up
-  Eigen::MatrixXd s = entry_remainder.size() > 0 ? entry_remainder
-                                                 : Eigen::MatrixXd::Constant(centre.rows(), centre.cols(), remainder);
-  for (const Eigen::MatrixXd& G : slopes) s += G.cwiseAbs();
-  for (const Eigen::MatrixXd& H : curvatures) s += H.cwiseAbs();
+  Eigen::MatrixXd s =
+      entry_remainder.size() > 0 ? entry_remainder : Eigen::MatrixXd::Constant(rows(), cols(), remainder);
+  for (int t = 1; t < parts(); ++t) s += part(t).cwiseAbs();
   return s;
 }
 
 double every_choice_upper(const std::vector<TaylorMatrix>& X, const Eigen::VectorXd& V, const TaylorMatrix& R,
                           const Eigen::VectorXd& rows, const Eigen::VectorXd& columns) {
   const UpwardRounding upward;
-  Eigen::MatrixXd E = R.centre.cwiseAbs() + R.spread();
+  Eigen::MatrixXd E = R.centre().cwiseAbs() + R.spread();
   for (std::size_t j = 0; j < X.size(); ++j)
-    E += std::abs(V(static_cast<Eigen::Index>(j))) * (X[j].centre.cwiseAbs() + X[j].spread());
+    E += std::abs(V(static_cast<Eigen::Index>(j))) * (X[j].centre().cwiseAbs() + X[j].spread());
   if (rows.size()) E = rows.asDiagonal() * E * columns.asDiagonal();  // products of positive numbers, rounded up
   return frobenius(E);
 }
 
 TaylorMatrix taylor_matrix(const Taylor* entries, int rows, int cols, int symbols) {
-  const auto pairs = symbol_pairs(symbols);
   TaylorMatrix X;
-  X.centre.resize(rows, cols);
-  X.slopes.assign(static_cast<std::size_t>(symbols), Eigen::MatrixXd(rows, cols));
-  X.curvatures.assign(pairs.size(), Eigen::MatrixXd(rows, cols));
+  X.shape(rows, cols, symbols);
   X.entry_remainder.resize(rows, cols);
+  const int pairs = pair_count(symbols);
   double squares = 0.0;
   for (int i = 0; i < rows; ++i)
     for (int j = 0; j < cols; ++j) {
       const Taylor& x = entries[i * cols + j];
-      X.centre(i, j) = x.c;
-      for (int k = 0; k < symbols; ++k) X.slopes[k](i, j) = x.slope(k);
-      for (std::size_t p = 0; p < pairs.size(); ++p) X.curvatures[p](i, j) = x.curvature(static_cast<int>(p));
+      X.centre()(i, j) = x.c;
+      for (int k = 0; k < symbols; ++k) X.slope(k)(i, j) = x.slope(k);
+      for (int p = 0; p < pairs; ++p) X.curvature(p)(i, j) = x.curvature(p);
       X.entry_remainder(i, j) = x.r;
       squares += x.r * x.r;
     }
@@ -130,13 +147,13 @@ namespace {
 // Whether every term's entries' remainders are known: the combinations then add remainders entry by entry.
 bool entries_known(const std::vector<TaylorMatrix>& terms) {
   return std::all_of(terms.begin(), terms.end(),
-                     [](const TaylorMatrix& X) { return X.entry_remainder.size() == X.centre.size(); });
+                     [](const TaylorMatrix& X) { return X.entry_remainder.size() == X.rows() * X.cols(); });
 }
 
 Eigen::MatrixXd combined_entry_remainders(const std::vector<TaylorMatrix>& terms, const Eigen::VectorXd& weights) {
   if (!entries_known(terms)) return {};
   const UpwardRounding upward;  // sums and products of non-negative terms, rounded up
-  Eigen::MatrixXd E = Eigen::MatrixXd::Zero(terms[0].centre.rows(), terms[0].centre.cols());
+  Eigen::MatrixXd E = Eigen::MatrixXd::Zero(terms[0].rows(), terms[0].cols());
   for (std::size_t j = 0; j < terms.size(); ++j) {
     const double w = std::abs(weights(static_cast<Eigen::Index>(j)));
     if (w != 0.0) E += w * terms[j].entry_remainder;
@@ -148,17 +165,17 @@ Eigen::MatrixXd combined_entry_remainders(const std::vector<TaylorMatrix>& terms
 // remainder not set); returns the bound of the sums' rounding.
 double sum_coefficients(const std::vector<TaylorMatrix>& terms, const Eigen::VectorXd& weights,
                         const std::vector<double>& term_frobenius, int symbols, TaylorMatrix& X) {
-  X.centre = Eigen::MatrixXd::Zero(terms[0].centre.rows(), terms[0].centre.cols());
-  X.slopes.assign(static_cast<std::size_t>(symbols), X.centre);
-  X.curvatures.assign(static_cast<std::size_t>(pair_count(symbols)), X.centre);
+  X.resize(terms[0].rows(), terms[0].cols(), symbols);
   double rounding = 0.0;  // Σ_j |w_j| ||X_j||_F, times γ: the rounding of every entry's sum
   for (std::size_t j = 0; j < terms.size(); ++j) {
     const double w = weights(static_cast<Eigen::Index>(j));
     if (w == 0.0) continue;
-    X.centre += w * terms[j].centre;
-    // The terms' symbols come first, and so do their pairs in symbol_pairs's order.
-    for (std::size_t k = 0; k < terms[j].slopes.size(); ++k) X.slopes[k] += w * terms[j].slopes[k];
-    for (std::size_t p = 0; p < terms[j].curvatures.size(); ++p) X.curvatures[p] += w * terms[j].curvatures[p];
+    // The terms' symbols come first, and so do their pairs in symbol_pairs's order: the centre and slopes, then the
+    // curvatures, each one run of X's parts.
+    const TaylorMatrix& T = terms[j];
+    const int s = T.symbols();
+    X.parts(0, 1 + s) += w * T.parts(0, 1 + s);
+    X.parts(1 + symbols, T.curvature_count()) += w * T.parts(1 + s, T.curvature_count());
     rounding += std::abs(w) * term_frobenius[j];
   }
   return up(gamma(static_cast<int>(terms.size())) * rounding);
@@ -186,7 +203,7 @@ namespace {
 
 // Part t of every term (TaylorMatrix::part), term j's as column j.
 Eigen::MatrixXd part_columns(const std::vector<TaylorMatrix>& terms, int t) {
-  Eigen::MatrixXd C(terms[0].centre.size(), static_cast<Eigen::Index>(terms.size()));
+  Eigen::MatrixXd C(terms[0].rows() * terms[0].cols(), static_cast<Eigen::Index>(terms.size()));
   for (std::size_t j = 0; j < terms.size(); ++j) C.col(static_cast<Eigen::Index>(j)) = terms[j].part(t).reshaped();
   return C;
 }
@@ -204,7 +221,7 @@ double largest_combination_frobenius_upper(const std::vector<TaylorMatrix>& term
   Eigen::VectorXd remainders(m);
   for (Eigen::Index j = 0; j < m; ++j) remainders(j) = terms[static_cast<std::size_t>(j)].remainder;
   Eigen::RowVectorXd bound = (W_abs.transpose() * remainders).transpose();  // Σ_j |w_j| r_j
-  const double rounding = 1.01 * gamma(static_cast<int>(terms[0].centre.size() + 2 * m + 2));
+  const double rounding = 1.01 * gamma(static_cast<int>(terms[0].rows() * terms[0].cols() + 2 * m + 2));
   Eigen::VectorXd norms(m);
   for (int t = 0; t < terms[0].parts(); ++t) {
     const Eigen::MatrixXd C = part_columns(terms, t);
@@ -228,11 +245,11 @@ SymbolicWeights symbolic_weights(const std::vector<TaylorMatrix>& terms, const s
     s.terms.push_back(j);
     if (by_entry) {
       Eigen::MatrixXd third = T.entry_remainder;
-      for (const Eigen::MatrixXd& H : T.curvatures) third += H.cwiseAbs();
+      for (int p = 0; p < T.curvature_count(); ++p) third += T.curvature(p).cwiseAbs();
       s.third_order.push_back(std::move(third));
     } else {
       double third = T.remainder;
-      for (const Eigen::MatrixXd& H : T.curvatures) third += frobenius(H);
+      for (int p = 0; p < T.curvature_count(); ++p) third += frobenius(T.curvature(p));
       s.third_order_norm.push_back(third);
     }
   }
@@ -255,8 +272,8 @@ TaylorMatrix linear_combination(const std::vector<TaylorMatrix>& terms, const Ei
     const TaylorMatrix& T = terms[symbolic.terms[r]];
     const double V = std::abs(weights(static_cast<Eigen::Index>(symbolic.terms[r])));
     const int omega = s + static_cast<int>(r);
-    X.slopes[omega] = V * T.centre;
-    for (int k = 0; k < s; ++k) X.curvatures[static_cast<std::size_t>(pair_index(k, omega))] = V * T.slopes[k];
+    X.slope(omega) = V * T.centre();
+    for (int k = 0; k < s; ++k) X.curvature(pair_index(k, omega)) = V * T.slope(k);
     // The products V x rounded within 2⁻⁵² of their moduli: at most 2⁻⁵² V ||X_j||_F over the centre and slopes.
     rounding += kTaylorRoundoff * V * term_frobenius[symbolic.terms[r]];
     const UpwardRounding upward;  // sums and products of non-negative terms
@@ -270,26 +287,21 @@ TaylorMatrix linear_combination(const std::vector<TaylorMatrix>& terms, const Ei
 }
 
 TaylorMatrix with_symbols(const TaylorMatrix& X, int symbols) {
-  TaylorMatrix Y = X;
-  const Eigen::MatrixXd zero = Eigen::MatrixXd::Zero(X.centre.rows(), X.centre.cols());
-  Y.slopes.resize(static_cast<std::size_t>(symbols), zero);
-  Y.curvatures.resize(static_cast<std::size_t>(pair_count(symbols)), zero);
+  TaylorMatrix Y(X.rows(), X.cols(), symbols);
+  const int s = X.symbols();
+  Y.parts(0, 1 + s) = X.parts(0, 1 + s);
+  Y.parts(1 + symbols, X.curvature_count()) = X.parts(1 + s, X.curvature_count());
+  Y.remainder = X.remainder;
+  Y.entry_remainder = X.entry_remainder;
   return Y;
 }
 
 void scaled_sum(const TaylorMatrix& X, const Eigen::VectorXd& d, const TaylorMatrix& Y, double frobenius,
                 TaylorMatrix& out) {
-  out.centre.noalias() = X.centre * d.asDiagonal();
-  out.centre += Y.centre;
-  out.slopes.resize(X.slopes.size());
-  for (std::size_t k = 0; k < X.slopes.size(); ++k) {
-    out.slopes[k].noalias() = X.slopes[k] * d.asDiagonal();
-    out.slopes[k] += Y.slopes[k];
-  }
-  out.curvatures.resize(X.curvatures.size());
-  for (std::size_t p = 0; p < X.curvatures.size(); ++p) {
-    out.curvatures[p].noalias() = X.curvatures[p] * d.asDiagonal();
-    out.curvatures[p] += Y.curvatures[p];
+  out.shape(X.rows(), X.cols(), X.symbols());
+  for (int t = 0; t < X.parts(); ++t) {
+    out.part(t).noalias() = X.part(t) * d.asDiagonal();
+    out.part(t) += Y.part(t);
   }
   // Each entry x d + y is rounded twice, each time within 2⁻⁵² of its modulus: ||·||_F of the error <= 2 · 2⁻⁵² ·
   // (||X D||_F + ||Y||_F) per term, and ||X D||_F <= ||X||_F for d in [0, 1].
@@ -298,38 +310,32 @@ void scaled_sum(const TaylorMatrix& X, const Eigen::VectorXd& d, const TaylorMat
 }
 
 TaylorMatrix sandwiched(const Eigen::MatrixXd& L, const TaylorMatrix& X, const Eigen::MatrixXd& R) {
-  const Eigen::MatrixXd I_left = Eigen::MatrixXd::Identity(X.centre.rows(), X.centre.rows());
-  const Eigen::MatrixXd I_right = Eigen::MatrixXd::Identity(X.centre.cols(), X.centre.cols());
+  const Eigen::MatrixXd I_left = Eigen::MatrixXd::Identity(X.rows(), X.rows());
+  const Eigen::MatrixXd I_right = Eigen::MatrixXd::Identity(X.cols(), X.cols());
   const Eigen::MatrixXd& left = L.size() ? L : I_left;
   const Eigen::MatrixXd& right = R.size() ? R : I_right;
   const double left_frobenius = frobenius(left), right_frobenius = frobenius(right);
   double rounding = 0.0;
   // fl(fl(L T) R): the first product errs by at most γ_n ||L||_F ||T||_F, which R stretches by ||R||_F; the second by
   // γ_n ||fl(L T)||_F ||R||_F.
-  const auto term = [&](const Eigen::MatrixXd& T) {
-    const Eigen::MatrixXd LT = left * T;
-    rounding += product_rounding(left, T) * right_frobenius + product_rounding(LT, right);
-    return Eigen::MatrixXd(LT * right);
-  };
   TaylorMatrix out;
-  out.centre = term(X.centre);
-  for (const Eigen::MatrixXd& G : X.slopes) out.slopes.push_back(term(G));
-  for (const Eigen::MatrixXd& H : X.curvatures) out.curvatures.push_back(term(H));
+  out.shape(left.rows(), right.cols(), X.symbols());
+  for (int t = 0; t < X.parts(); ++t) {
+    const Eigen::MatrixXd LT = left * X.part(t);
+    rounding += product_rounding(left, X.part(t)) * right_frobenius + product_rounding(LT, right);
+    out.part(t).noalias() = LT * right;
+  }
   out.remainder = up(up(left_frobenius * X.remainder * right_frobenius) + up(rounding));
   return out;
 }
 
 TaylorMatrix pattern_envelope(const TaylorMatrix& X, const TaylorMatrix& Y, double frobenius) {
-  const auto stacked = [](const Eigen::MatrixXd& x, const Eigen::MatrixXd& y) {
-    Eigen::MatrixXd z(x.cols() + y.cols(), x.rows());
-    z.topRows(x.cols()) = (x + y).transpose();
-    z.bottomRows(y.cols()) = y.transpose();
-    return z;
-  };
   TaylorMatrix out;
-  out.centre = stacked(X.centre, Y.centre);
-  for (std::size_t k = 0; k < X.slopes.size(); ++k) out.slopes.push_back(stacked(X.slopes[k], Y.slopes[k]));
-  for (std::size_t p = 0; p < X.curvatures.size(); ++p) out.curvatures.push_back(stacked(X.curvatures[p], Y.curvatures[p]));
+  out.shape(X.cols() + Y.cols(), X.rows(), X.symbols());
+  for (int t = 0; t < X.parts(); ++t) {
+    out.part(t).topRows(X.cols()) = (X.part(t) + Y.part(t)).transpose();
+    out.part(t).bottomRows(Y.cols()) = Y.part(t).transpose();
+  }
   // The remainders [ΔX + ΔY, ΔY] in norm (||[A; B]||² <= ||A||² + ||B||²), and each entry x + y rounded within 2⁻⁵² of
   // its modulus.
   const double top = up(X.remainder + Y.remainder);
@@ -356,11 +362,11 @@ struct BasisTerms {
 
 BasisTerms in_basis(const TaylorMatrix& X, const Eigen::MatrixXd& V) {
   const double V_frobenius = frobenius(V);
-  const Eigen::Index n = V.cols(), rows = X.centre.rows(), count = X.parts() - 1;
-  BasisTerms t{X.centre * V, Eigen::MatrixXd(rows, n * count), X.symbols(), static_cast<int>(X.curvatures.size()),
-               product_rounding(X.centre, V_frobenius)};
+  const Eigen::Index n = V.cols(), rows = X.rows(), count = X.parts() - 1;
+  BasisTerms t{X.centre() * V, Eigen::MatrixXd(rows, n * count), X.symbols(), X.curvature_count(),
+               product_rounding(X.centre(), V_frobenius)};
   // The parts one below the other, multiplied by V at once, then side by side.
-  Eigen::MatrixXd stacked(rows * count, X.centre.cols());
+  Eigen::MatrixXd stacked(rows * count, X.cols());
   for (Eigen::Index part = 0; part < count; ++part) {
     stacked.middleRows(part * rows, rows) = X.part(static_cast<int>(part + 1));
     t.rho += product_rounding(X.part(static_cast<int>(part + 1)), V_frobenius);
@@ -496,10 +502,11 @@ Interval two_by_two_upper(const Interval& a, const Interval& b2, const Interval&
 }
 
 // The right singular vectors of C (leading first) and their non-orthogonality δ, bounded (δ >= 0.5: unusable).
-Eigen::MatrixXd singular_basis(const Eigen::MatrixXd& C, double& delta) {
+Eigen::MatrixXd singular_basis(const TaylorMatrix::ConstPart& C, double& delta) {
   const Eigen::MatrixXd V = symmetric_eigen(C.transpose() * C).vectors.rowwise().reverse();
   const auto n = V.cols();
-  delta = up(frobenius(V.transpose() * V - Eigen::MatrixXd::Identity(n, n)) + product_rounding(V.transpose(), V));
+  const Eigen::MatrixXd Vt = V.transpose(), W = V.transpose() * V - Eigen::MatrixXd::Identity(n, n);
+  delta = up(frobenius(W) + product_rounding(Vt, V));
   return V;
 }
 
@@ -512,7 +519,7 @@ double norm_upper(const TaylorMatrix& X, double floor) {
   const double cheap = X.frobenius_upper();
   if (cheap <= floor || !std::isfinite(cheap)) return cheap;
   double delta = 0.0;
-  const Eigen::MatrixXd V = singular_basis(X.centre, delta);
+  const Eigen::MatrixXd V = singular_basis(X.centre(), delta);
   if (!(delta < 0.5)) return cheap;
   const BasisTerms t = in_basis(X, V);
   Eigen::VectorXd s, h;
@@ -546,11 +553,11 @@ double norm_upper(const TaylorMatrix& X, double floor) {
 namespace {
 
 // A lower bound of T_00(ε) = v_0ᵀ X(ε) v_0 over the box, keeping the sign of its second-order terms.
-double top_entry_lower(double centre, const Eigen::VectorXd& slopes, const std::vector<Eigen::MatrixXd>& curvatures,
-                       int m) {
+double top_entry_lower(double centre, const Eigen::VectorXd& slopes, const Eigen::VectorXd& curvatures, int m) {
   const auto pairs = symbol_pairs(m);
   Eigen::MatrixXd Q = Eigen::MatrixXd::Zero(m, m);
-  for (std::size_t p = 0; p < pairs.size(); ++p) add_pair_coefficient(Q, pairs[p], -curvatures[p](0, 0));
+  for (std::size_t p = 0; p < pairs.size(); ++p)
+    add_pair_coefficient(Q, pairs[p], -curvatures(static_cast<Eigen::Index>(p)));
   const UpwardRounding upward;
   return -(-centre + quadratic_polynomial_upper(-slopes, Q));
 }
@@ -558,33 +565,29 @@ double top_entry_lower(double centre, const Eigen::VectorXd& slopes, const std::
 }  // namespace
 
 double smallest_eigenvalue_lower(const TaylorMatrix& X) {
-  const int n = static_cast<int>(X.centre.cols()), m = X.symbols();
-  const Eigen::MatrixXd V = symmetric_eigen(0.5 * (X.centre + X.centre.transpose())).vectors;  // smallest first
-  const Eigen::MatrixXd W = V.transpose() * V - Eigen::MatrixXd::Identity(n, n);
-  const double delta = up(frobenius(W) + product_rounding(V.transpose(), V));
+  const int n = static_cast<int>(X.cols()), m = X.symbols();
+  const Eigen::MatrixXd V = symmetric_eigen(0.5 * (X.centre() + X.centre().transpose())).vectors;  // smallest first
+  const Eigen::MatrixXd Vt = V.transpose(), W = V.transpose() * V - Eigen::MatrixXd::Identity(n, n);
+  const double delta = up(frobenius(W) + product_rounding(Vt, V));
   if (!(delta < 0.5)) return -kInfinity;
   // T(ε) = Vᵀ X_poly(ε) V: centre, slopes and curvatures, with the products' rounding as a perturbation of norm <= rho.
-  const auto rounding = [&](const Eigen::MatrixXd& Y) {
-    return up(product_rounding(V.transpose(), Y) * frobenius(V) + product_rounding(V.transpose() * Y, V));
+  const auto rounding = [&](const TaylorMatrix::ConstPart& Y) {
+    const Eigen::MatrixXd VtY = V.transpose() * Y;
+    return up(product_rounding(Vt, Y) * frobenius(V) + product_rounding(VtY, V));
   };
-  const Eigen::MatrixXd T = V.transpose() * X.centre * V;
-  double rho = rounding(X.centre);
+  const Eigen::MatrixXd T = V.transpose() * X.centre() * V;
+  double rho = rounding(X.centre());
   Eigen::MatrixXd spread = Eigen::MatrixXd::Zero(n, n);  // Σ_k |T_k(i, j)| + Σ_p |T_p(i, j)|
-  Eigen::VectorXd top_slopes(m);
-  std::vector<Eigen::MatrixXd> curvatures;
-  for (int k = 0; k < m; ++k) {
-    const Eigen::MatrixXd Tk = V.transpose() * X.slopes[k] * V;
-    top_slopes(k) = Tk(0, 0);
-    spread += Tk.cwiseAbs();
-    rho += rounding(X.slopes[k]);
-  }
-  for (const auto& H : X.curvatures) {
-    curvatures.push_back(V.transpose() * H * V);
-    spread += curvatures.back().cwiseAbs();
-    rho += rounding(H);
+  Eigen::VectorXd top_slopes(m), top_curvatures(X.curvature_count());
+  Eigen::MatrixXd Tt;
+  for (int t = 1; t < X.parts(); ++t) {
+    Tt.noalias() = V.transpose() * X.part(t) * V;
+    (t <= m ? top_slopes(t - 1) : top_curvatures(t - 1 - m)) = Tt(0, 0);
+    spread += Tt.cwiseAbs();
+    rho += rounding(X.part(t));
   }
   // The remainder in the same basis, entry by entry where its entries are known: |VᵀΔV| <= |V|ᵀ|Δ||V| (rounded up).
-  const bool by_entry = X.entry_remainder.size() == X.centre.size();
+  const bool by_entry = X.entry_remainder.size() == X.rows() * X.cols();
   Eigen::MatrixXd remainder = Eigen::MatrixXd::Zero(n, n);
   if (by_entry)
     remainder = (V.cwiseAbs().transpose() * X.entry_remainder * V.cwiseAbs()).unaryExpr([&](double x) {
@@ -592,7 +595,7 @@ double smallest_eigenvalue_lower(const TaylorMatrix& X) {
     });
   spread += remainder;
   const Eigen::MatrixXd magnitude = T.cwiseAbs() + spread;  // |T_ij(ε)| <= magnitude(i, j)
-  const Interval a = Interval(top_entry_lower(T(0, 0), top_slopes, curvatures, m)) - Interval(remainder(0, 0));
+  const Interval a = Interval(top_entry_lower(T(0, 0), top_slopes, top_curvatures, m)) - Interval(remainder(0, 0));
   Interval b2(0.0);
   Eigen::VectorXd diagonal(n - 1);  // lower bounds of T_ii(ε), i >= 1
   for (int i = 1; i < n; ++i) {
@@ -631,17 +634,18 @@ CoefficientMatrices coefficient_matrices(const std::vector<Taylor>& X, int rows,
   return m;
 }
 
-// Row-major forms from one matrix per part (in TaylorMatrix::part's numbering) and each entry's remainder, rounded up.
-std::vector<Taylor> forms_of(const std::vector<Eigen::MatrixXd>& terms, const Eigen::MatrixXd& remainder, int symbols) {
+// Row-major forms from a Taylor matrix's parts and each entry's remainder, rounded up.
+std::vector<Taylor> forms_of(const TaylorMatrix& terms, const Eigen::MatrixXd& remainder) {
   const auto rows = static_cast<int>(remainder.rows()), cols = static_cast<int>(remainder.cols());
+  const int symbols = terms.symbols();
   std::vector<Taylor> X(static_cast<std::size_t>(rows * cols));
   for (int i = 0; i < rows; ++i)
     for (int j = 0; j < cols; ++j) {
       Taylor& x = X[static_cast<std::size_t>(i * cols + j)];
-      x.c = terms[0](i, j);
+      x.c = terms.centre()(i, j);
       x.symbols = symbols;
-      for (int k = 0; k < symbols; ++k) x.a[k] = terms[1 + k](i, j);
-      for (int p = 0; p < pair_count(symbols); ++p) x.b[p] = terms[1 + symbols + p](i, j);
+      for (int k = 0; k < symbols; ++k) x.a[k] = terms.slope(k)(i, j);
+      for (int p = 0; p < pair_count(symbols); ++p) x.b[p] = terms.curvature(p)(i, j);
       x.r = up(remainder(i, j));
     }
   return X;
@@ -670,7 +674,7 @@ int triple_index(int k, int first, int second) {
 // (|A|_1 |B|_2 + |A|_2 |B|_1), and their underflow within 2⁻¹⁰⁷⁴ each. The coefficient matrices sit side by side in
 // one matrix, one allocation.
 Eigen::MatrixXd cubic_upper(const CoefficientMatrices& a, const CoefficientMatrices& b, int symbols) {
-  const auto rows = a.X.centre.rows(), inner = a.X.centre.cols(), cols = b.X.centre.cols();
+  const auto rows = a.X.rows(), inner = a.X.cols(), cols = b.X.cols();
   const int pairs = pair_count(symbols);
   Eigen::MatrixXd stacked_b(inner, cols * pairs), stacked_a(rows * pairs, inner);
   for (int p = 0; p < pairs; ++p) {
@@ -708,18 +712,19 @@ std::vector<Taylor> product(const std::vector<Taylor>& A, const std::vector<Tayl
   const CoefficientMatrices a = coefficient_matrices(A, rows, inner, symbols), b = coefficient_matrices(B, inner, cols, symbols);
   Eigen::MatrixXd cubic;
   if (cubic_terms == CubicTerms::by_monomials) cubic = cubic_upper(a, b, symbols);
-  std::vector<Eigen::MatrixXd> c(static_cast<std::size_t>(1 + symbols + pair_count(symbols)));
-  c[0].noalias() = a.X.part(0) * b.X.part(0);
+  TaylorMatrix c;
+  c.shape(rows, cols, symbols);
+  c.part(0).noalias() = a.X.part(0) * b.X.part(0);
   for (int k = 0; k < symbols; ++k) {
-    c[1 + k].noalias() = a.X.part(0) * b.X.part(1 + k);
-    c[1 + k].noalias() += a.X.part(1 + k) * b.X.part(0);
+    c.part(1 + k).noalias() = a.X.part(0) * b.X.part(1 + k);
+    c.part(1 + k).noalias() += a.X.part(1 + k) * b.X.part(0);
   }
   for (int p = 0; p < pair_count(symbols); ++p) {
     const int k = kPairs.first[p], l = kPairs.second[p], t = 1 + symbols + p;
-    c[t].noalias() = a.X.part(0) * b.X.part(t);
-    c[t].noalias() += a.X.part(t) * b.X.part(0);
-    c[t].noalias() += a.X.part(1 + k) * b.X.part(1 + l);
-    if (k != l) c[t].noalias() += a.X.part(1 + l) * b.X.part(1 + k);
+    c.part(t).noalias() = a.X.part(0) * b.X.part(t);
+    c.part(t).noalias() += a.X.part(t) * b.X.part(0);
+    c.part(t).noalias() += a.X.part(1 + k) * b.X.part(1 + l);
+    if (k != l) c.part(t).noalias() += a.X.part(1 + l) * b.X.part(1 + k);
   }
   Eigen::MatrixXd remainder;
   {
@@ -730,7 +735,7 @@ std::vector<Taylor> product(const std::vector<Taylor>& A, const std::vector<Tayl
     remainder = cubic + a.quadratic * b.quadratic + a.total * br + ar * b.total + ar * br +
                 gamma(4 * inner) * (a.total * b.total);
   }
-  return forms_of(c, remainder, symbols);
+  return forms_of(c, remainder);
 }
 
 double frobenius_upper(const std::vector<Taylor>& X) {
@@ -760,15 +765,16 @@ Eigen::MatrixXd inverse_cholesky_factor(const std::vector<Taylor>& M, int n) {
 std::vector<Taylor> left_multiply(const Eigen::MatrixXd& K, const std::vector<Taylor>& X, int n) {
   const int symbols = symbols_of(X);
   const CoefficientMatrices x = coefficient_matrices(X, static_cast<int>(K.cols()), n, symbols);
-  std::vector<Eigen::MatrixXd> y(static_cast<std::size_t>(1 + symbols + pair_count(symbols)));
-  for (std::size_t t = 0; t < y.size(); ++t) y[t].noalias() = K * x.X.part(static_cast<int>(t));
+  TaylorMatrix y;
+  y.shape(K.rows(), n, symbols);
+  for (int t = 0; t < y.parts(); ++t) y.part(t).noalias() = K * x.X.part(t);
   Eigen::MatrixXd remainder;
   {
     const UpwardRounding upward;
     const Eigen::MatrixXd K_abs = K.cwiseAbs();
     remainder = K_abs * x.X.entry_remainder + gamma(static_cast<int>(K.cols())) * (K_abs * x.total);
   }
-  return forms_of(y, remainder, symbols);
+  return forms_of(y, remainder);
 }
 
 // ||X(ε)||₂ over the box by the triangle inequality, term by term: ||C||₂ + Σ_k ||G_k||₂ + Σ_p ||H_p||_F + remainder.
@@ -777,10 +783,10 @@ std::vector<Taylor> left_multiply(const Eigen::MatrixXd& K, const std::vector<Ta
 // norm_upper 0.252, this 0.205; docs/theory.md, "M⁻¹ over a box"). The eigensolvers run in the default rounding; the
 // few sums before the upward ones are within up()'s inflation.
 double termwise_norm_upper(const TaylorMatrix& X) {
-  double terms = spectral_norm_upper(X.centre);
-  for (const Eigen::MatrixXd& G : X.slopes) terms += spectral_norm_upper(G);
+  double terms = spectral_norm_upper(X.centre());
+  for (int k = 0; k < X.symbols(); ++k) terms += spectral_norm_upper(X.slope(k));
   const UpwardRounding upward;
-  for (const Eigen::MatrixXd& H : X.curvatures) terms += frobenius(H);
+  for (int p = 0; p < X.curvature_count(); ++p) terms += frobenius(X.curvature(p));
   return up(terms + X.remainder);
 }
 
@@ -792,8 +798,8 @@ double termwise_norm_upper(const TaylorMatrix& X) {
 // term and 0.41 from the Gram matrix; docs/theory.md, "M⁻¹ over a box").
 double gram_norm_upper(const TaylorMatrix& X) {
   const int parts = X.parts() - 1;
-  const double centre = spectral_norm_upper(X.centre);  // in the default rounding, as its eigensolver expects
-  Eigen::MatrixXd P(X.centre.size(), parts);
+  const double centre = spectral_norm_upper(X.centre());  // in the default rounding, as its eigensolver expects
+  Eigen::MatrixXd P(X.rows() * X.cols(), parts);
   for (int t = 0; t < parts; ++t) P.col(t) = X.part(t + 1).reshaped();
   double sizes = 0.0;
   {

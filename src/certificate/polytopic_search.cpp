@@ -315,24 +315,16 @@ namespace {
 
 // X placed at (row, col) of a size x size zero matrix.
 TaylorMatrix placed(const TaylorMatrix& X, int size, int row, int col) {
-  const auto put = [&](const Eigen::MatrixXd& x) {
-    Eigen::MatrixXd Y = Eigen::MatrixXd::Zero(size, size);
-    Y.block(row, col, x.rows(), x.cols()) = x;
-    return Y;
-  };
-  TaylorMatrix Y;
-  Y.centre = put(X.centre);
-  for (const Eigen::MatrixXd& G : X.slopes) Y.slopes.push_back(put(G));
-  for (const Eigen::MatrixXd& H : X.curvatures) Y.curvatures.push_back(put(H));
+  TaylorMatrix Y(size, size, X.symbols());
+  for (int t = 0; t < X.parts(); ++t) Y.part(t).block(row, col, X.rows(), X.cols()) = X.part(t);
   Y.remainder = X.remainder;
   return Y;
 }
 
 TaylorMatrix transposed(const TaylorMatrix& X) {
   TaylorMatrix Y;
-  Y.centre = X.centre.transpose();
-  for (const Eigen::MatrixXd& G : X.slopes) Y.slopes.push_back(G.transpose());
-  for (const Eigen::MatrixXd& H : X.curvatures) Y.curvatures.push_back(H.transpose());
+  Y.shape(X.cols(), X.rows(), X.symbols());
+  for (int t = 0; t < X.parts(); ++t) Y.part(t) = X.part(t).transpose();
   Y.remainder = X.remainder;
   return Y;
 }
@@ -344,9 +336,7 @@ void add_symmetric_pair(const TaylorMatrix& X, int size, int row, int col, std::
 }
 
 TaylorMatrix negated(TaylorMatrix X) {
-  X.centre = -X.centre;
-  for (Eigen::MatrixXd& G : X.slopes) G = -G;
-  for (Eigen::MatrixXd& H : X.curvatures) H = -H;
+  X.parts(0, X.parts()) = -X.parts(0, X.parts());
   return X;
 }
 
@@ -354,9 +344,8 @@ TaylorMatrix negated(TaylorMatrix X) {
 // norms; where that is not enough, the fine bound of λmin(−X) (bounds/taylor_matrix.hpp).
 double largest_eigenvalue_bound(const TaylorMatrix& X) {
   const UpwardRounding upward;
-  Interval cheap = Interval(largest_eigenvalue_upper(X.centre)) + Interval(X.remainder);
-  for (const Eigen::MatrixXd& G : X.slopes) cheap += Interval(G.norm() * (1.0 + 1e-13));
-  for (const Eigen::MatrixXd& H : X.curvatures) cheap += Interval(H.norm() * (1.0 + 1e-13));
+  Interval cheap = Interval(largest_eigenvalue_upper(X.centre())) + Interval(X.remainder);
+  for (int t = 1; t < X.parts(); ++t) cheap += Interval(X.part(t).norm() * (1.0 + 1e-13));
   if (cheap.upper() <= 0.0) return cheap.upper();
   return std::min(cheap.upper(), -smallest_eigenvalue_lower(negated(X)));
 }
@@ -376,8 +365,8 @@ BoxBound PolytopicSearch::State::box_bound(const std::vector<Interval>& box, con
   if (!forms.proven) return bound;
   const Eigen::MatrixXd PE = P.rightCols(n);
   const int symbols = forms.R.symbols();
-  TaylorMatrix fixed;
-  fixed.centre = constant;
+  TaylorMatrix fixed(constant.rows(), constant.cols(), 0);
+  fixed.centre() = constant;
   {
     const UpwardRounding upward;
     // x and (e_v, δ) share e_v: the symmetric part of the coupling has norm up to twice the block's.

@@ -57,7 +57,7 @@ double weighted_gershgorin_lower(const Eigen::VectorXd& d, const Eigen::MatrixXd
   return std::max(gershgorin, (Interval(t) - Interval(perron_upper(K))).lower());
 }
 
-double spectral_norm(const Eigen::MatrixXd& A) {
+double spectral_norm(const Eigen::Ref<const Eigen::MatrixXd>& A) {
   return std::sqrt(symmetric_eigenvalues(A * A.transpose()).maxCoeff());
 }
 
@@ -83,7 +83,7 @@ double smallest_eigenvalue_lower(const Eigen::MatrixXd& S) {
   return (Interval(lambda(0)) - Interval(kEigenPad) * Interval(lambda.cwiseAbs().maxCoeff())).lower();
 }
 
-double spectral_norm_upper(const Eigen::MatrixXd& B) {
+double spectral_norm_upper(const Eigen::Ref<const Eigen::MatrixXd>& B) {
   if (B.isZero(0.0)) return 0.0;  // exactly (also empty)
   const bool tall = B.rows() >= B.cols();
   const Eigen::MatrixXd G = tall ? Eigen::MatrixXd(B.transpose() * B) : Eigen::MatrixXd(B * B.transpose());

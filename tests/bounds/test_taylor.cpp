@@ -190,7 +190,7 @@ long double combination_size(const std::vector<obsgain::TaylorMatrix>& terms, co
   for (std::size_t j = 0; j < terms.size(); ++j) size += std::abs(static_cast<long double>(w(static_cast<Eigen::Index>(j)))) * terms[j].remainder;
   for (int t = 0; t < terms[0].parts(); ++t) {
     long double squares = 0.0L;
-    for (Eigen::Index e = 0; e < terms[0].centre.size(); ++e) {
+    for (Eigen::Index e = 0; e < terms[0].rows() * terms[0].cols(); ++e) {
       long double entry = 0.0L;
       for (std::size_t j = 0; j < terms.size(); ++j)
         entry += static_cast<long double>(w(static_cast<Eigen::Index>(j))) * terms[j].part(t).reshaped()(e);
@@ -251,10 +251,9 @@ TEST(TaylorMatrices, CombinationBoundsFromGramMatricesHoldAndAreTight) {
 // λmin of a Taylor matrix sees where the remainder sits: a remainder of 5 on the large diagonal entry of
 // diag(10, 1) leaves λmin = 1 (a norm-only remainder would give 1 - 5), and the bound holds for every member.
 TEST(TaylorMatrices, SmallestEigenvalueUsesTheRemainderEntryByEntry) {
-  obsgain::TaylorMatrix X;
-  X.centre = Eigen::Vector2d(10.0, 1.0).asDiagonal();
-  X.slopes.push_back((Eigen::Matrix2d() << 0.0, 0.01, 0.01, 0.0).finished());
-  X.curvatures.push_back(Eigen::Matrix2d::Zero());
+  obsgain::TaylorMatrix X(2, 2, 1);
+  X.centre() = Eigen::Vector2d(10.0, 1.0).asDiagonal();
+  X.slope(0) << 0.0, 0.01, 0.01, 0.0;
   X.entry_remainder = (Eigen::Matrix2d() << 5.0, 0.0, 0.0, 0.0).finished();
   X.remainder = 5.0;
   const double lower = obsgain::smallest_eigenvalue_lower(X);
@@ -262,7 +261,8 @@ TEST(TaylorMatrices, SmallestEigenvalueUsesTheRemainderEntryByEntry) {
   std::mt19937_64 rng(9);
   std::uniform_real_distribution<double> unit(-1.0, 1.0);
   for (int i = 0; i < 1000; ++i) {
-    const Eigen::Matrix2d member = X.centre + unit(rng) * X.slopes[0] + (Eigen::Matrix2d() << 5.0 * unit(rng), 0, 0, 0).finished();
+    const Eigen::Matrix2d member =
+        X.centre() + unit(rng) * X.slope(0) + (Eigen::Matrix2d() << 5.0 * unit(rng), 0, 0, 0).finished();
     EXPECT_LE(lower, obsgain::symmetric_eigenvalues(member)(0));
   }
   X.entry_remainder.resize(0, 0);  // known as a norm only
@@ -274,25 +274,25 @@ TEST(TaylorMatrices, SmallestEigenvalueUsesTheRemainderEntryByEntry) {
 // 10.0052 (the cubic and quartic terms, and the coupling through the 2 x 2 lemma). The bound holds at random members
 // of random matrices of this shape.
 TEST(TaylorMatrices, NormBoundKeepsTheSignOfTheCurvature) {
-  obsgain::TaylorMatrix X;
-  X.centre = Eigen::Vector2d(10.0, 1.0).asDiagonal();
-  X.slopes = {Eigen::Matrix2d::Zero(), (Eigen::Matrix2d() << 0.0, 0.1, 0.1, 0.0).finished()};
-  X.curvatures = {(Eigen::Matrix2d() << -0.2, 0.0, 0.0, 0.0).finished(), Eigen::Matrix2d::Zero(), Eigen::Matrix2d::Zero()};
+  obsgain::TaylorMatrix X(2, 2, 2);
+  X.centre() = Eigen::Vector2d(10.0, 1.0).asDiagonal();
+  X.slope(1) << 0.0, 0.1, 0.1, 0.0;
+  X.curvature(obsgain::pair_index(0, 0))(0, 0) = -0.2;
   const double bound = obsgain::norm_upper(X, 0.0);
   EXPECT_GE(bound, 10.0011);
   EXPECT_LT(bound, 10.0053);
   std::mt19937_64 rng(4);
   std::uniform_real_distribution<double> unit(-1.0, 1.0);
   for (int trial = 0; trial < 200; ++trial) {
-    obsgain::TaylorMatrix Y;
-    Y.centre = Eigen::Matrix3d::NullaryExpr([&] { return 3.0 * unit(rng); });
-    for (int k = 0; k < 2; ++k) Y.slopes.push_back(Eigen::Matrix3d::NullaryExpr([&] { return 0.3 * unit(rng); }));
-    for (int p = 0; p < 3; ++p) Y.curvatures.push_back(Eigen::Matrix3d::NullaryExpr([&] { return 0.2 * unit(rng); }));
+    obsgain::TaylorMatrix Y(3, 3, 2);
+    Y.centre() = Eigen::Matrix3d::NullaryExpr([&] { return 3.0 * unit(rng); });
+    for (int k = 0; k < 2; ++k) Y.slope(k) = Eigen::Matrix3d::NullaryExpr([&] { return 0.3 * unit(rng); });
+    for (int p = 0; p < 3; ++p) Y.curvature(p) = Eigen::Matrix3d::NullaryExpr([&] { return 0.2 * unit(rng); });
     const double upper = obsgain::norm_upper(Y, 0.0);
     for (int point = 0; point < 50; ++point) {
       const double e0 = unit(rng), e1 = unit(rng);
-      const Eigen::Matrix3d member = Y.centre + e0 * Y.slopes[0] + e1 * Y.slopes[1] + e0 * e0 * Y.curvatures[0] +
-                                     e0 * e1 * Y.curvatures[1] + e1 * e1 * Y.curvatures[2];
+      const Eigen::Matrix3d member = Y.centre() + e0 * Y.slope(0) + e1 * Y.slope(1) + e0 * e0 * Y.curvature(0) +
+                                     e0 * e1 * Y.curvature(1) + e1 * e1 * Y.curvature(2);
       EXPECT_LE(obsgain::spectral_norm(member), upper);
     }
   }
@@ -302,19 +302,48 @@ TEST(TaylorMatrices, NormBoundKeepsTheSignOfTheCurvature) {
 obsgain::TaylorMatrix random_taylor_matrix(int rows, int cols, int symbols, double size, std::mt19937_64& rng) {
   std::uniform_real_distribution<double> unit(-1.0, 1.0);
   const auto random = [&](double scale) { return Eigen::MatrixXd(Eigen::MatrixXd::NullaryExpr(rows, cols, [&] { return scale * unit(rng); })); };
-  obsgain::TaylorMatrix X;
-  X.centre = random(size);
-  for (int k = 0; k < symbols; ++k) X.slopes.push_back(random(0.1 * size));
-  for (int p = 0; p < obsgain::pair_count(symbols); ++p) X.curvatures.push_back(random(0.02 * size));
+  obsgain::TaylorMatrix X(rows, cols, symbols);
+  X.centre() = random(size);
+  for (int k = 0; k < symbols; ++k) X.slope(k) = random(0.1 * size);
+  for (int p = 0; p < obsgain::pair_count(symbols); ++p) X.curvature(p) = random(0.02 * size);
   X.remainder = 0.01 * size;
   return X;
 }
 Eigen::MatrixXd member(const obsgain::TaylorMatrix& X, const std::vector<double>& e) {
-  Eigen::MatrixXd Y = X.centre;
+  Eigen::MatrixXd Y = X.centre();
   const auto pairs = obsgain::symbol_pairs(X.symbols());
-  for (int k = 0; k < X.symbols(); ++k) Y += e[k] * X.slopes[k];
-  for (std::size_t p = 0; p < pairs.size(); ++p) Y += e[pairs[p].first] * e[pairs[p].second] * X.curvatures[p];
+  for (int k = 0; k < X.symbols(); ++k) Y += e[k] * X.slope(k);
+  for (std::size_t p = 0; p < pairs.size(); ++p)
+    Y += e[pairs[p].first] * e[pairs[p].second] * X.curvature(static_cast<int>(p));
   return Y;
+}
+
+// The parts sit one after the other in one vector, each padded to an even count of doubles (a 3 x 3 part takes 10):
+// a matrix taken over more symbols (with_symbols, which moves the curvatures behind the new slopes) has every member
+// of the old one to the last bit, its new parts are zero, and the padding stays zero where a matrix is formed without
+// zeroing (scaled_sum), so that operations on many parts at once add nothing.
+TEST(TaylorMatrices, MoreSymbolsKeepEveryMemberToTheLastBit) {
+  std::mt19937_64 rng(12);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  for (const auto& [rows, cols] : {std::pair{3, 3}, std::pair{2, 2}, std::pair{5, 3}}) {
+    const obsgain::TaylorMatrix X = random_taylor_matrix(rows, cols, 3, 1.0, rng);
+    const obsgain::TaylorMatrix Y = obsgain::with_symbols(X, 5);
+    ASSERT_EQ(Y.symbols(), 5);
+    ASSERT_EQ(Y.rows(), rows);
+    EXPECT_EQ(Y.remainder, X.remainder);
+    for (int k = 3; k < 5; ++k) EXPECT_TRUE(Y.slope(k).isZero(0.0));
+    for (int trial = 0; trial < 20; ++trial) {
+      std::vector<double> e(5);
+      for (double& x : e) x = unit(rng);
+      EXPECT_TRUE((member(Y, e).array() == member(X, {e[0], e[1], e[2]}).array()).all()) << rows << " x " << cols;
+    }
+    obsgain::TaylorMatrix Z;
+    obsgain::scaled_sum(X, Eigen::VectorXd::Constant(cols, 0.5), X, 2.0 * X.frobenius_upper(), Z);
+    double parts = 0.0;
+    for (int t = 0; t < Z.parts(); ++t) parts += Z.part(t).squaredNorm();
+    EXPECT_NEAR(Z.parts(0, Z.parts()).squaredNorm(), parts, 1e-12 * parts);
+    EXPECT_EQ(Z.parts(0, Z.parts()).size(), (rows * cols + rows * cols % 2) * Z.parts());
+  }
 }
 
 // The columns of diag(1.2, 1) turned by θ ≈ 0.3 ε, with cos and sin to second order (1 - 0.045 ε², 0.3 ε): they stay
@@ -324,10 +353,10 @@ Eigen::MatrixXd member(const obsgain::TaylorMatrix& X, const std::vector<double>
 // bound is 1.2421 (docs/theory.md, "The Gram matrix gathered"). Random matrices of up to 12 symbols and of the
 // envelope's 2n x n shape: the bound holds at random points and corners of the box.
 TEST(TaylorMatrices, NormBoundGathersTheGramMatrix) {
-  obsgain::TaylorMatrix X;
-  X.centre = Eigen::Vector2d(1.2, 1.0).asDiagonal();
-  X.slopes = {(Eigen::Matrix2d() << 0.0, -0.3, 1.2 * 0.3, 0.0).finished()};
-  X.curvatures = {(Eigen::Matrix2d() << -1.2 * 0.045, 0.0, 0.0, -0.045).finished()};
+  obsgain::TaylorMatrix X(2, 2, 1);
+  X.centre() = Eigen::Vector2d(1.2, 1.0).asDiagonal();
+  X.slope(0) << 0.0, -0.3, 1.2 * 0.3, 0.0;
+  X.curvature(0) << -1.2 * 0.045, 0.0, 0.0, -0.045;
   const double bound = obsgain::norm_upper(X, 0.0);
   EXPECT_GE(bound, 1.2 * std::sqrt(1.0 + std::pow(0.3, 4) / 4.0));
   EXPECT_LT(bound, 1.2200);
@@ -349,8 +378,7 @@ TEST(TaylorMatrices, NormBoundGathersTheGramMatrix) {
 // Δ_Y = r_Y u vᵀ (unit u, v) make [Δ_X + Δ_Y, Δ_Y]ᵀ = [r_X + r_Y; r_Y] ⊗ v uᵀ, of exactly that norm
 // (docs/theory.md, "Remainders entry by entry in the combinations"). r_X + 2 r_Y would be 1.9 here, not √2.05.
 TEST(TaylorMatrices, PatternEnvelopeRemainderIsAttained) {
-  obsgain::TaylorMatrix X, Y;
-  X.centre = Y.centre = Eigen::MatrixXd::Zero(3, 3);
+  obsgain::TaylorMatrix X(3, 3, 0), Y(3, 3, 0);
   X.remainder = 0.7;
   Y.remainder = 0.6;
   const obsgain::TaylorMatrix envelope = obsgain::pattern_envelope(X, Y, 0.0);
@@ -458,10 +486,8 @@ TEST(TaylorMatrices, SymbolicWeightsCoverEveryWeightInTheirBox) {
 TEST(TaylorMatrices, CombinationRemaindersAddEntryByEntry) {
   std::vector<obsgain::TaylorMatrix> X(2);
   for (int j = 0; j < 2; ++j) {
-    X[j].centre = Eigen::MatrixXd::Zero(2, 2);
-    X[j].slopes = {Eigen::MatrixXd::Zero(2, 2)};
-    X[j].curvatures = {Eigen::MatrixXd::Zero(2, 2)};
-    X[j].curvatures[0](j, j) = j == 0 ? 0.3 : 0.4;
+    X[j].resize(2, 2, 1);
+    X[j].curvature(0)(j, j) = j == 0 ? 0.3 : 0.4;
     X[j].entry_remainder = Eigen::MatrixXd::Zero(2, 2);
     X[j].entry_remainder(j, j) = j == 0 ? 0.1 : 0.2;
     X[j].remainder = X[j].entry_remainder(j, j);

@@ -20,26 +20,60 @@ std::vector<std::pair<int, int>> symbol_pairs(int symbols);
 // The position of ε_k ε_l in that order.
 int pair_index(int k, int l);
 
-struct TaylorMatrix {
-  Eigen::MatrixXd centre;
-  std::vector<Eigen::MatrixXd> slopes;      // G_k, one per symbol in use
-  std::vector<Eigen::MatrixXd> curvatures;  // H_kl, in the order of symbol_pairs(slopes.size())
-  double remainder = 0.0;                   // ||Δ||₂ <= remainder
+// The parts sit one after the other in one vector, so that forming, copying or dropping a Taylor matrix is one
+// allocation and one copy, not one per part (a six-joint box forms thousands of them: docs/theory.md, "The budget").
+// Each part starts on a 16-byte boundary, as a matrix of its own would: Eigen's vectorised sums then add in the same
+// order, and the bounds are the same to the last bit.
+class TaylorMatrix {
+ public:
+  using Part = Eigen::Map<Eigen::MatrixXd, Eigen::Aligned16>;
+  using ConstPart = Eigen::Map<const Eigen::MatrixXd, Eigen::Aligned16>;
+
+  double remainder = 0.0;  // ||Δ||₂ <= remainder
   // |Δ_ij| <= entry_remainder(i, j) where known (from forms entry by entry; empty after combinations): λmin then
   // sees which entries the remainder sits in, not only its norm.
   Eigen::MatrixXd entry_remainder;
 
-  int symbols() const { return static_cast<int>(slopes.size()); }
+  TaylorMatrix() = default;
+  // rows x cols over `symbols` symbols, every part zero.
+  TaylorMatrix(Eigen::Index rows, Eigen::Index cols, int symbols) { resize(rows, cols, symbols); }
+  // The shape, with every part zero; the storage is reused where it is large enough.
+  void resize(Eigen::Index rows, Eigen::Index cols, int symbols);
+  // The shape, the parts' values left unspecified: for a caller that writes every part.
+  void shape(Eigen::Index rows, Eigen::Index cols, int symbols);
+
+  Eigen::Index rows() const { return rows_; }
+  Eigen::Index cols() const { return cols_; }
+  int symbols() const { return symbols_; }
   // Its parts in one numbering: 0 the centre, then the slopes G_k, then the curvatures H_kl.
-  int parts() const { return static_cast<int>(1 + slopes.size() + curvatures.size()); }
-  const Eigen::MatrixXd& part(int t) const {
-    const int s = symbols();
-    return t == 0 ? centre : t <= s ? slopes[static_cast<std::size_t>(t - 1)] : curvatures[static_cast<std::size_t>(t - 1 - s)];
+  int parts() const { return 1 + symbols_ + pair_count(symbols_); }
+  int curvature_count() const { return pair_count(symbols_); }
+  Part part(int t) { return {coefficients_.data() + t * stride_, rows_, cols_}; }
+  ConstPart part(int t) const { return {coefficients_.data() + t * stride_, rows_, cols_}; }
+  Part centre() { return part(0); }
+  ConstPart centre() const { return part(0); }
+  Part slope(int k) { return part(1 + k); }
+  ConstPart slope(int k) const { return part(1 + k); }
+  Part curvature(int p) { return part(1 + symbols_ + p); }
+  ConstPart curvature(int p) const { return part(1 + symbols_ + p); }
+  // Parts first, ..., first + count - 1 as one vector (with the zeros that pad each to its boundary): what is done to
+  // every entry of many parts alike is one operation.
+  Eigen::VectorBlock<Eigen::VectorXd> parts(int first, int count) {
+    return coefficients_.segment(first * stride_, count * stride_);
   }
+  Eigen::VectorBlock<const Eigen::VectorXd> parts(int first, int count) const {
+    return coefficients_.segment(first * stride_, count * stride_);
+  }
+
   // An upper bound of ||X(ε)||_F over the box (cheap, first order): ||C||_F + Σ ||G_k||_F + Σ ||H_kl||_F + remainder.
   double frobenius_upper() const;
   // |X(ε) - C| <= spread entrywise over the box, rounded up.
   Eigen::MatrixXd spread() const;
+
+ private:
+  Eigen::VectorXd coefficients_;
+  Eigen::Index rows_ = 0, cols_ = 0, stride_ = 0;  // stride_: rows_ cols_ rounded up to an even count of doubles
+  int symbols_ = 0;
 };
 
 // From a row-major array of forms: entries' remainders become a Frobenius bound of Δ.

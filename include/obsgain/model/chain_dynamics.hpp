@@ -405,8 +405,13 @@ void chain_mass_matrix(const SerialChain& chain, const ChainKinematics<S>& k, S*
   std::conditional_t<std::is_same_v<S, double>, std::array<CompositeInertia<S>, kMaxChainJoints>,
                      std::vector<CompositeInertia<S>>>
       composite{};
-  if constexpr (!std::is_same_v<S, double>) composite.resize(static_cast<std::size_t>(n));
-  for (int i = 0; i < n; ++i) composite[i] = body_inertia<S>(chain.bodies[i]);
+  if constexpr (std::is_same_v<S, double>) {
+    for (int i = 0; i < n; ++i) composite[i] = body_inertia<S>(chain.bodies[i]);
+  } else {
+    // Appended rather than resized and assigned: resizing would value-initialise, zeroing each inertia's kilobytes.
+    composite.reserve(static_cast<std::size_t>(n));
+    for (int i = 0; i < n; ++i) composite.push_back(body_inertia<S>(chain.bodies[i]));
+  }
   for (int i = n - 1; i > 0; --i) add_to_parent(chain, k, i, composite[i], composite[i - 1]);
   for (int i = 0; i < n; ++i) {
     const Eigen::Vector3d& axis = chain.joints[i].axis;

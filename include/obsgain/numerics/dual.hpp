@@ -16,25 +16,22 @@ inline constexpr int kMaxDirections = 7;
 template <class T>
 struct Dual {
   T value{0.0};
+  // Value-initialised: zero for every scalar the duals are taken of (double, Interval, Taylor), without forming a zero
+  // and copying it seven times (a Taylor form's copy is a call, and a box's forms make tens of thousands of duals).
   std::array<T, kMaxDirections> derivative{};
   int directions = 0;  // entries beyond this are zero and never read
 
-  Dual() : derivative(zeros()) {}
-  Dual(double v) : value(v), derivative(zeros()) {}  // NOLINT: constants mix freely with duals
-  Dual(const T& v) : value(v), derivative(zeros()) {}  // NOLINT
+  // Provided, not defaulted: a defaulted one would make value-initialisation (std::vector<Dual>(n)) zero the whole
+  // object first, kilobytes per dual of Taylor forms.
+  Dual() {}  // NOLINT(modernize-use-equals-default)
+  Dual(double v) : value(v) {}  // NOLINT: constants mix freely with duals
+  Dual(const T& v) : value(v) {}  // NOLINT
   // The variable q_k: value v, derivative e_k.
   static Dual variable(const T& v, int k, int directions) {
     Dual d(v);
     d.directions = directions;
     d.derivative[k] = T(1.0);
     return d;
-  }
-
- private:
-  static std::array<T, kMaxDirections> zeros() {
-    std::array<T, kMaxDirections> z;
-    z.fill(T(0.0));
-    return z;
   }
 };
 

@@ -31,7 +31,7 @@ double perron_upper(const Eigen::MatrixXd& B);
 // min_i d_i - Σ_j B_ij, which is also taken). +∞ for the empty matrix.
 double weighted_gershgorin_lower(const Eigen::VectorXd& d, const Eigen::MatrixXd& B);
 // ||A||₂ in floating point, as Eigen's operatorNorm computes it (an estimate: spectral_norm_upper bounds it).
-double spectral_norm(const Eigen::MatrixXd& A);
+double spectral_norm(const Eigen::Ref<const Eigen::MatrixXd>& A);
 // G = U T Uᵀ, T quasi upper triangular, U orthogonal.
 struct RealSchurForm {
   Eigen::MatrixXd T, U;
@@ -54,7 +54,7 @@ double smallest_eigenvalue_lower(const Eigen::MatrixXd& S);
 // γ_k ||B||_F² (plus underflow) of the true one in norm, which is added under the square root. An eigenproblem of the
 // smaller side, not of the (rows + cols)-square dilation [[0, B], [Bᵀ, 0]]: a fraction of the work, and the bound
 // is larger by about γ_k ||B||_F² / (2 ||B||₂²) relative, 1e-14 for the sizes obsgain handles.
-double spectral_norm_upper(const Eigen::MatrixXd& B);
+double spectral_norm_upper(const Eigen::Ref<const Eigen::MatrixXd>& B);
 
 using IntervalMatrix = Eigen::Matrix<Interval, Eigen::Dynamic, Eigen::Dynamic>;
 // The largest eigenvalue of every symmetric matrix inside X (read from its lower triangle), bounded above: Weyl's
