@@ -85,7 +85,8 @@ void TaylorMatrix::shape(Eigen::Index rows, Eigen::Index cols, int symbols) {
   symbols_ = symbols;
   stride_ = (rows * cols + 1) / 2 * 2;
   coefficients_.resize(stride_ * parts());
-  // The padding stays zero, so that operations on many parts at once (parts(first, count)) leave it zero.
+  // The padding is zero, so that operations on many parts at once (parts(first, count)) find zeros there and leave
+  // zeros.
   if (stride_ != rows * cols)
     for (int t = 0; t < parts(); ++t) coefficients_(t * stride_ + stride_ - 1) = 0.0;
 }

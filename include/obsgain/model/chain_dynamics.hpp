@@ -87,19 +87,19 @@ S combine(double c0, const S& x0, double c1, const S& x1, double c2, const S& x2
     return sum;
   }
 }
-// R v for a constant R (not named apply: std::apply would join the overload set through std::array).
+// R v for a constant R (not named apply: std::apply would join the overload set through std::array). The components
+// are formed in place rather than assigned: a dual of Taylor forms is kilobytes, and the recursions rotate a few
+// vectors per body.
 template <class S>
 Vec3<S> rotate(const Eigen::Matrix3d& R, const Vec3<S>& v) {
-  Vec3<S> r;
-  for (int i = 0; i < 3; ++i) r[i] = combine(R(i, 0), v[0], R(i, 1), v[1], R(i, 2), v[2]);
-  return r;
+  const auto row = [&](int i) { return combine(R(i, 0), v[0], R(i, 1), v[1], R(i, 2), v[2]); };
+  return {row(0), row(1), row(2)};
 }
 // Rᵀ v.
 template <class S>
 Vec3<S> rotate_back(const Eigen::Matrix3d& R, const Vec3<S>& v) {
-  Vec3<S> r;
-  for (int i = 0; i < 3; ++i) r[i] = combine(R(0, i), v[0], R(1, i), v[1], R(2, i), v[2]);
-  return r;
+  const auto column = [&](int i) { return combine(R(0, i), v[0], R(1, i), v[1], R(2, i), v[2]); };
+  return {column(0), column(1), column(2)};
 }
 template <class S>
 S dot(const Eigen::Vector3d& a, const Vec3<S>& b) {
@@ -184,9 +184,8 @@ Vec3<S> rodrigues(const Eigen::Vector3d& a, const S& c, const S& s, const Vec3<S
   const Eigen::Matrix3d along = a * a.transpose();
   const Eigen::Matrix3d across = Eigen::Matrix3d::Identity() - along;
   const Vec3<S> parallel = rotate(along, v), perpendicular = rotate(across, v), axv = cross(a, v);
-  Vec3<S> r;
-  for (int i = 0; i < 3; ++i) r[i] = parallel[i] + perpendicular[i] * c + sign * (axv[i] * s);
-  return r;
+  const auto component = [&](int i) { return parallel[i] + perpendicular[i] * c + sign * (axv[i] * s); };
+  return {component(0), component(1), component(2)};
 }
 
 // From body i's frame into body i-1's, and back.
@@ -321,12 +320,10 @@ CompositeInertia<S> body_inertia(const RigidBody& body) {
 // Rows of X = A I Bᵀ for constant A, B and a symmetric I given by its rows.
 template <class S>
 std::array<Vec3<S>, 3> sandwich(const Eigen::Matrix3d& A, const std::array<Vec3<S>, 3>& I, const Eigen::Matrix3d& B) {
-  std::array<Vec3<S>, 3> IB;  // I Bᵀ: row r is (B I_r)ᵀ
-  for (int r = 0; r < 3; ++r) IB[r] = rotate(B, I[r]);
-  std::array<Vec3<S>, 3> X;
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) X[r][c] = combine(A(r, 0), IB[0][c], A(r, 1), IB[1][c], A(r, 2), IB[2][c]);
-  return X;
+  const std::array<Vec3<S>, 3> IB{rotate(B, I[0]), rotate(B, I[1]), rotate(B, I[2])};  // I Bᵀ: row r is (B I_r)ᵀ
+  const auto entry = [&](int r, int c) { return combine(A(r, 0), IB[0][c], A(r, 1), IB[1][c], A(r, 2), IB[2][c]); };
+  const auto row = [&](int r) { return Vec3<S>{entry(r, 0), entry(r, 1), entry(r, 2)}; };
+  return {row(0), row(1), row(2)};
 }
 
 // Rot I Rotᵀ for Rot = Rot(a, q) on enclosures. With Rot = A0 + c A1 + s A2 (A0 = a aᵀ, A1 = 1 - a aᵀ, A2 = [a×]) and
@@ -347,16 +344,14 @@ std::array<Vec3<S>, 3> rotated_inertia(const Eigen::Vector3d& a, const S& c, con
   A2 << 0.0, -a.z(), a.y(), a.z(), 0.0, -a.x(), -a.y(), a.x(), 0.0;
   const auto I00 = sandwich(A0, I, A0), I11 = sandwich(A1, I, A1), I22 = sandwich(A2, I, A2);
   const auto I01 = sandwich(A0, I, A1), I02 = sandwich(A0, I, A2), I12 = sandwich(A1, I, A2);
-  std::array<Vec3<S>, 3> R;
-  for (int r = 0; r < 3; ++r)
-    for (int k = 0; k < 3; ++k) {
-      const S T0 = I00[r][k] + 0.5 * (I11[r][k] + I22[r][k]);
-      const S T1 = I01[r][k] + I01[k][r], T2 = I02[r][k] + I02[k][r];
-      const S T3 = 0.5 * (I11[r][k] - I22[r][k]), T4 = 0.5 * (I12[r][k] + I12[k][r]);
-      R[r][k] = sum_of_products(T0, std::array<const S*, 4>{&c, &s, &c2, &s2},
-                                std::array<const S*, 4>{&T1, &T2, &T3, &T4});
-    }
-  return R;
+  const auto entry = [&](int r, int k) {
+    const S T0 = I00[r][k] + 0.5 * (I11[r][k] + I22[r][k]);
+    const S T1 = I01[r][k] + I01[k][r], T2 = I02[r][k] + I02[k][r];
+    const S T3 = 0.5 * (I11[r][k] - I22[r][k]), T4 = 0.5 * (I12[r][k] + I12[k][r]);
+    return sum_of_products(T0, std::array<const S*, 4>{&c, &s, &c2, &s2}, std::array<const S*, 4>{&T1, &T2, &T3, &T4});
+  };
+  const auto row = [&](int r) { return Vec3<S>{entry(r, 0), entry(r, 1), entry(r, 2)}; };
+  return {row(0), row(1), row(2)};
 }
 
 // Body i's composite inertia expressed about body i-1's origin, in its frame: h' = R h + m p, and
