@@ -3,6 +3,7 @@
 #include "obsgain/bounds/box_forms.hpp"
 #include "obsgain/bounds/inertia_floor.hpp"
 #include "obsgain/bounds/taylor_matrix.hpp"
+#include "obsgain/model/chain_dynamics.hpp"
 #include "obsgain/model/dynamics.hpp"
 #include "obsgain/numerics/spectrum.hpp"
 
@@ -234,7 +235,28 @@ std::vector<TaylorMatrix> unit_jacobians(const BoxForms& d) {
   return J;
 }
 
-BoxCosts box_costs(int n, int symbols, bool frictionless) {
+CountedModel counted_model(const Model& model) {
+  CountedModel counted{.frictionless = model.friction.isZero(0.0)};
+  const auto* chain = std::get_if<SerialChain>(&model.structure);
+  if (!chain || chain->joints.empty()) return counted;
+  // Counted as the combinations of model/chain_dynamics.hpp see them: row by row, against the row's largest entry.
+  const auto entries = [](const auto& rows) {
+    int count = 0;
+    for (Eigen::Index i = 0; i < rows.rows(); ++i) {
+      const double largest = rows.row(i).cwiseAbs().maxCoeff();
+      for (Eigen::Index k = 0; k < rows.cols(); ++k)
+        count += rows(i, k) != 0.0 && !chain_detail::negligible_coefficient(rows(i, k), largest) ? 1 : 0;
+    }
+    return count;
+  };
+  int extra = 0;
+  for (const ChainJoint& joint : chain->joints)
+    extra += entries(joint.rotation) - 3 + entries(joint.axis.transpose()) - 1;
+  counted.extra_products_per_joint = static_cast<double>(std::max(extra, 0)) / static_cast<double>(chain->joints.size());
+  return counted;
+}
+
+BoxCosts box_costs(int n, int symbols, const CountedModel& model) {
   // Seconds on the reference machine, the suite's (two cores): each step timed there on one core, per box, on
   // examples/arm6.urdf, arm7.urdf, iiwa14.urdf and the UR5 with armature, and halved for the two cores (the forms and
   // the inertia floor's route refitted in the seventh round of issue 18, after they became faster, the forms and the
@@ -247,15 +269,19 @@ BoxCosts box_costs(int n, int symbols, bool frictionless) {
   // a Taylor matrix's n x n parts (centre, slopes, curvatures).
   constexpr double ahead = 1.25;
   const double n1 = n, n2 = n1 * n1, n3 = n2 * n1, s = symbols, terms = 1.0 + s + pair_count(symbols);
-  const double vertices = std::ldexp(1.0, frictionless ? n - 1 : n);
+  const double vertices = std::ldexp(1.0, model.frictionless ? n - 1 : n);
   const double gram = ahead * (0.27e-6 + 0.057e-9 * n2 * terms * terms);
   const double refinement = ahead * (0.86e-6 + 3.45e-9 * n2 * terms);
   // E²'s cubic terms monomial by monomial: s pair_count(s) n³ multiplications, twice, and s pair_count(s) sums.
   const double sp = s * pair_count(symbols), cubic = ahead * (0.33e-6 + 0.192e-9 * sp * n3 + 12.6e-9 * sp);
+  // The forms grow with the products the placements take (the twenty-eighth round): the Jaco2's forms, whose wrists
+  // are placed at 60°, took 1.30 and 1.52 times arm6's at 5 and 10 symbols, timed on one core.
+  const double placements = 1.0 + 0.3 * model.extra_products_per_joint;
+  const double forms = ahead * (12.4e-6 + 0.76e-6 * n3 * (1.0 + 0.047 * s)) * placements;
   // The products' fit included two fine norm bounds (of η and ||E K||), which inverse_norm_upper no longer takes.
   const double products = ahead * (14.45e-6 + 14.45e-9 * n2 * n2 * s) + 2.0 * (gram - refinement);
   return {.inertia = 0.75e-6 * n3,
-          .forms = ahead * (12.4e-6 + 0.76e-6 * n3 * (1.0 + 0.047 * s)),
+          .forms = forms,
           .products = products + cubic,
           .failed_inverse = 0.3 * products,
           .vertex = ahead * (0.33e-6 + 2.3e-9 * n2 * terms),
@@ -299,17 +325,17 @@ Similarity similarity(const Eigen::MatrixXd& T) {
 BoxBounds::BoxBounds(const Model& model, const JointSearch& search, const Eigen::VectorXd& velocity_bounds,
                      const Eigen::MatrixXd& scaling)
     : model_(model), search_(search), velocity_bounds_(velocity_bounds), vertices_(box_vertices(velocity_bounds)),
-      count_(static_cast<unsigned>(vertices_.cols())), half_(count_ / 2), frictionless_(model.friction.isZero(0.0)),
+      count_(static_cast<unsigned>(vertices_.cols())), half_(count_ / 2), counted_(counted_model(model)),
       inertia_floor_(inertia_floor(model)) {
   if (scaling.size()) scaling_ = similarity(scaling);
   routes_ = floor_routes(model, inertia_floor_, scaling_);
 }
 
-double BoxBounds::value_work() const { return box_costs(model_.dof(), 0, frictionless_).point; }
+double BoxBounds::value_work() const { return box_costs(model_.dof(), 0, counted_).point; }
 
 BoxBound BoxBounds::inverse_inertia(const std::vector<Interval>& box) const {
   const BoxForms d = box_forms(model_, search_, box, false);
-  const BoxCosts costs = box_costs(d.n, d.symbols, frictionless_);
+  const BoxCosts costs = box_costs(d.n, d.symbols, counted_);
   BoxBound bound{kInfinity, {}, costs.inertia + costs.refinement};
   const double lambda = inertia_lower(taylor_matrix(d.M.data(), d.n, d.n, d.symbols), inertia_floor_, d, bound.split_weight);
   if (lambda > 0.0) bound.upper = (Interval(1.0) / Interval(lambda)).upper();
@@ -320,7 +346,7 @@ BoxBound BoxBounds::jacobian(const std::vector<Interval>& box, double lower) con
   const BoxForms d = box_forms(model_, search_, box, true);
   const std::vector<TaylorMatrix> J = unit_jacobians(d);
   const std::vector<double> J_frobenius = frobenius_uppers(J);
-  const BoxCosts costs = box_costs(d.n, d.symbols, frictionless_);
+  const BoxCosts costs = box_costs(d.n, d.symbols, counted_);
   BoxBound bound{0.0, {}, costs.forms};
   for (unsigned c = half_; c < count_; ++c) {
     const TaylorMatrix Jw = linear_combination(J, vertices_.col(c), J_frobenius);
@@ -400,7 +426,7 @@ LipschitzTerms lipschitz_terms(const Model& model, const BoxForms& d, const std:
 // The velocity box, whether F = 0 (then only the full pattern) and what each step costs.
 struct VelocityChoices {
   const Eigen::VectorXd& velocity_bounds;
-  bool frictionless;
+  CountedModel counted;
   BoxCosts costs;
 };
 
@@ -500,7 +526,7 @@ double choices_upper(const LipschitzTerms& t, const BoxForms& d, const VelocityC
   const std::vector<double> A_frobenius = frobenius_uppers(t.A);
   const std::vector<bool> free = symbolic_velocities(t.A, A_frobenius, v.velocity_bounds);
   const SymbolicWeights symbolic = symbolic_weights(t.A, free);
-  const std::vector<Eigen::VectorXd> ws = enumerated_vertices(v.velocity_bounds, free, v.frictionless);
+  const std::vector<Eigen::VectorXd> ws = enumerated_vertices(v.velocity_bounds, free, v.counted.frictionless);
   std::vector<VertexEnvelope> vertices;
   std::vector<Choice> choices;
   // R over the vertices' symbols: the box's and one per velocity component carried as a symbol.
@@ -511,13 +537,13 @@ double choices_upper(const LipschitzTerms& t, const BoxForms& d, const VelocityC
     e.Aw = linear_combination(t.A, w, symbolic, A_frobenius);
     e.Aw_frobenius = e.Aw.frobenius_upper();
     weigh_sides(e.Aw, d, weights);
-    e.envelope = v.frictionless ? e.Aw : pattern_envelope(e.Aw, R, e.Aw_frobenius + R_frobenius);
+    e.envelope = v.counted.frictionless ? e.Aw : pattern_envelope(e.Aw, R, e.Aw_frobenius + R_frobenius);
     const double centre = e.envelope.centre().norm(), cheap = e.envelope.frobenius_upper();
     choices.push_back({cheap, cheap - centre, static_cast<unsigned>(vertices.size()), 0u});
     vertices.push_back(std::move(e));
   }
   // The vertices' forms carry the velocity symbols too: what each step costs grows with them.
-  const BoxCosts costs = box_costs(d.n, R.symbols(), v.frictionless);
+  const BoxCosts costs = box_costs(d.n, R.symbols(), v.counted);
   work += static_cast<double>(choices.size()) * costs.vertex;
   int refined = 0, full = 0;
   const double R_centre = spectral_norm(t.R.centre());
@@ -528,14 +554,14 @@ double choices_upper(const LipschitzTerms& t, const BoxForms& d, const VelocityC
     if (centre_norm_below(C.transpose() * C, floor - choice.variation, size * size)) return floor;
     ++full;
     const double fine = norm_upper(e.envelope, floor);
-    if (v.frictionless || fine <= floor) return fine;
+    if (v.counted.frictionless || fine <= floor) return fine;
     const double sigma = spectral_norm(C);
     const double added = R_centre * R_centre / (2.0 * spectral_norm(e.Aw.centre() + t.R.centre()));
     if (added < 0.1 * (fine - sigma)) return fine;
     return std::min(fine, patterns_upper(e.Aw, e.Aw_frobenius, R, floor, costs, work));
   }, refined);
   // A centre test per vertex refined; an envelope (2n x n with friction) costs two n x n refinements.
-  work += refined * costs.choice + full * costs.refinement * (v.frictionless ? 1.0 : 2.0);
+  work += refined * costs.choice + full * costs.refinement * (v.counted.frictionless ? 1.0 : 2.0);
   return upper;
 }
 
@@ -546,7 +572,7 @@ double similar_choices_upper(const LipschitzTerms& t, const Eigen::MatrixXd& Y, 
                              const VelocityChoices& v, double lower, std::vector<double>& weights, double& work) {
   const std::vector<double> A_frobenius = frobenius_uppers(t.A);
   const std::vector<Eigen::VectorXd> ws =
-      enumerated_vertices(v.velocity_bounds, std::vector<bool>(t.A.size(), false), v.frictionless);
+      enumerated_vertices(v.velocity_bounds, std::vector<bool>(t.A.size(), false), v.counted.frictionless);
   const UpwardRounding upward;
   const double Y_frobenius = (Interval(Y.norm()) * Interval(1.0 + 1e-15)).upper(), R_frobenius = t.R.frobenius_upper();
   const TaylorMatrix zero(t.R.rows(), t.R.cols(), t.R.symbols());
@@ -611,7 +637,7 @@ BoxBound BoxBounds::joint_lipschitz(const std::vector<Interval>& box, double low
   const BoxForms d = box_forms(model_, search_, box, true);
   const std::vector<TaylorMatrix> J = unit_jacobians(d);
   const TaylorInverse inverse_M = inverse(d.M, d.n, d.symbols);
-  const BoxCosts costs = box_costs(d.n, d.symbols, frictionless_);
+  const BoxCosts costs = box_costs(d.n, d.symbols, counted_);
   const double inertia_route_work = costs.refinement + costs.inertia_route;
   if (!inverse_M.proven) {
     BoxBound bound = inertia_route(routes_.size() == 1 ? routes_.front() : *likeliest_route(d, J).first, d, J);
@@ -649,7 +675,7 @@ BoxBound BoxBounds::joint_lipschitz(const std::vector<Interval>& box, double low
     if (by_inertia.upper <= lower) return restored({by_inertia.upper, std::move(by_inertia.split_weight), bound.work});
     cap = by_inertia.upper;
   }
-  const VelocityChoices choices{velocity_bounds_, frictionless_, costs};
+  const VelocityChoices choices{velocity_bounds_, counted_, costs};
   const double polynomial = full ? similar_choices_upper(t, scaling.columns, d, choices, lower - t.tail, bound.split_weight, bound.work)
                                 : choices_upper(t, d, choices, lower - t.tail, bound.split_weight, bound.work);
   bound.upper = std::min({cap, polynomial + t.tail, bound.upper});  // bound.upper: the entry moduli's
@@ -682,7 +708,7 @@ PolytopeCell BoxBounds::perturbation_cell(const std::vector<Interval>& box) cons
 PerturbationForms BoxBounds::perturbation_forms(const std::vector<Interval>& box) const {
   const BoxForms d = box_forms(model_, search_, box, true);
   PerturbationForms forms;
-  forms.costs = box_costs(d.n, d.symbols, frictionless_);
+  forms.costs = box_costs(d.n, d.symbols, counted_);
   const TaylorInverse inverse_M = inverse(d.M, d.n, d.symbols);
   const std::vector<TaylorMatrix> J = unit_jacobians(d);
   weigh_sides(linear_combination(J, velocity_bounds_, frobenius_uppers(J)), d, forms.split_weight);

@@ -20,7 +20,7 @@ namespace obsgain {
 
 // What the work on one box costs, counted rather than timed so that a budget of work stops every run at the same
 // box: seconds of wall time on the reference machine (two cores like the suite's), fitted to timings of each step
-// on n joints whose forms carry `symbols` symbols (docs/theory.md, "The budget").
+// on n joints whose forms carry `symbols` symbols, of the model as CountedModel sees it (docs/theory.md, "The budget").
 struct BoxCosts {
   double inertia;     // M over the box as Taylor forms, and its derivatives on intervals
   double forms;       // M with its derivatives and the Christoffel tensors, as forms
@@ -34,7 +34,17 @@ struct BoxCosts {
   double jacobian_vertex;  // one vertex's J(w) = Σ_j w_j J_j and its cheap bound (B's search)
   double inertia_route;    // the cheap bounds of J(w) at every vertex at once (the inertia floor's route)
 };
-BoxCosts box_costs(int n, int symbols, bool frictionless);
+
+// What the count sees of a model besides its joints and the forms' symbols.
+struct CountedModel {
+  bool frictionless = false;  // F = 0: half of the velocity vertices are taken (BoxBounds below)
+  // Products by constants that the frames' placements and axes take per joint beyond those of a quarter-turn
+  // placement about a coordinate axis (3 entries of a placement, 1 of an axis; an entry small enough to be bounded
+  // rather than multiplied is not counted, model/chain_dynamics.hpp): a tilted placement makes more forms non-zero.
+  double extra_products_per_joint = 0.0;
+};
+CountedModel counted_model(const Model& model);
+BoxCosts box_costs(int n, int symbols, const CountedModel& model);
 
 // A similarity T for L_T = sup ||T Φ T⁻¹|| (docs/theory.md, "Similarity scaling"). The forms are scaled to T X Y,
 // Y ≈ T⁻¹ computed in double (each product's rounding bounded by the forms), and
@@ -103,7 +113,7 @@ class BoxBounds {
   // J(q, -w) = -J(q, w): the vertices with w_n < 0 repeat the others for ||J||, and for ||M⁻¹(J D + F)|| too when
   // F = 0 (the full pattern D = I is then the maximum, ||A D|| <= ||A||, and the only one needed).
   unsigned count_, half_;
-  bool frictionless_;
+  CountedModel counted_;
   double inertia_floor_;  // λmin(M(q)) >= it for every q (bounds/inertia_floor.hpp)
   std::optional<Similarity> scaling_;
   std::vector<FloorRoute> routes_;
