@@ -38,10 +38,9 @@ struct BoxCosts {
 // What the count sees of a model besides its joints and the forms' symbols.
 struct CountedModel {
   bool frictionless = false;  // F = 0: half of the velocity vertices are taken (BoxBounds below)
-  // Products by constants that the frames' placements and axes take per joint beyond those of a quarter-turn
-  // placement about a coordinate axis (3 entries of a placement, 1 of an axis; an entry small enough to be bounded
-  // rather than multiplied is not counted, model/chain_dynamics.hpp): a tilted placement makes more forms non-zero.
-  double extra_products_per_joint = 0.0;
+  // The share of the bodies' centre-of-mass coordinates (in their joints' frames) that are not zero: every product
+  // by a zero is skipped in the forms, and a centre on the joint's axis leaves most of them zero.
+  double centre_offsets = 0.0;
 };
 CountedModel counted_model(const Model& model);
 BoxCosts box_costs(int n, int symbols, const CountedModel& model);
