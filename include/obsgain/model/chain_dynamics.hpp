@@ -317,13 +317,17 @@ CompositeInertia<S> body_inertia(const RigidBody& body) {
   return I;
 }
 
+// The rows of a 3 x 3 matrix from its entries `entry(r, c)`, each formed in place (a brace list evaluates in order).
+template <class S, class Entry>
+std::array<Vec3<S>, 3> rows_of(const Entry& entry) {
+  const auto row = [&](int r) { return Vec3<S>{entry(r, 0), entry(r, 1), entry(r, 2)}; };
+  return {row(0), row(1), row(2)};
+}
 // Rows of X = A I Bᵀ for constant A, B and a symmetric I given by its rows.
 template <class S>
 std::array<Vec3<S>, 3> sandwich(const Eigen::Matrix3d& A, const std::array<Vec3<S>, 3>& I, const Eigen::Matrix3d& B) {
   const std::array<Vec3<S>, 3> IB{rotate(B, I[0]), rotate(B, I[1]), rotate(B, I[2])};  // I Bᵀ: row r is (B I_r)ᵀ
-  const auto entry = [&](int r, int c) { return combine(A(r, 0), IB[0][c], A(r, 1), IB[1][c], A(r, 2), IB[2][c]); };
-  const auto row = [&](int r) { return Vec3<S>{entry(r, 0), entry(r, 1), entry(r, 2)}; };
-  return {row(0), row(1), row(2)};
+  return rows_of<S>([&](int r, int c) { return combine(A(r, 0), IB[0][c], A(r, 1), IB[1][c], A(r, 2), IB[2][c]); });
 }
 
 // Rot I Rotᵀ for Rot = Rot(a, q) on enclosures. With Rot = A0 + c A1 + s A2 (A0 = a aᵀ, A1 = 1 - a aᵀ, A2 = [a×]) and
@@ -350,8 +354,7 @@ std::array<Vec3<S>, 3> rotated_inertia(const Eigen::Vector3d& a, const S& c, con
     const S T3 = 0.5 * (I11[r][k] - I22[r][k]), T4 = 0.5 * (I12[r][k] + I12[k][r]);
     return sum_of_products(T0, std::array<const S*, 4>{&c, &s, &c2, &s2}, std::array<const S*, 4>{&T1, &T2, &T3, &T4});
   };
-  const auto row = [&](int r) { return Vec3<S>{entry(r, 0), entry(r, 1), entry(r, 2)}; };
-  return {row(0), row(1), row(2)};
+  return rows_of<S>(entry);
 }
 
 // Body i's composite inertia expressed about body i-1's origin, in its frame: h' = R h + m p, and
