@@ -21,8 +21,8 @@ std::vector<std::pair<int, int>> symbol_pairs(int symbols);
 int pair_index(int k, int l);
 
 // The parts sit one after the other in one vector, so that forming, copying or dropping a Taylor matrix is one
-// allocation and one copy, not one per part (a six-joint box forms thousands of them: docs/theory.md, "Certified
-// bounds on the arms", the twenty-seventh round).
+// allocation and one copy, not one per part (a six-joint box forms thousands of them: docs/history.md, the
+// twenty-seventh round).
 // Each part starts on a 16-byte boundary, as a matrix of its own would: Eigen's vectorised sums then add in the same
 // order, and the bounds are the same to the last bit.
 class TaylorMatrix {
