@@ -262,11 +262,12 @@ BoxCosts box_costs(int n, int symbols, const CountedModel& model) {
   const double refinement = ahead * (0.86e-6 + 3.45e-9 * n2 * terms);
   // E²'s cubic terms monomial by monomial: s pair_count(s) n³ multiplications, twice, and s pair_count(s) sums.
   const double sp = s * pair_count(symbols), cubic = ahead * (0.33e-6 + 0.192e-9 * sp * n3 + 12.6e-9 * sp);
-  // The forms, refitted in the twenty-eighth round to their timings on one core (the Pendubot, arm3, arm6, the UR5,
-  // arm7, the iiwa, the Panda, and arm6 with its centres of mass moved off the axes, at about 5 and 10 symbols):
-  // within 9 % of each, the Jaco2's 14-22 % above; the n³ fit before ranged over 0.65-1.07 of their times. Scaled to
-  // keep arm6's mean count.
-  const double forms = ahead * n2 * (4.30e-6 + 0.0475e-6 * terms) * (1.0 + 0.2 * model.centre_offsets);
+  // The forms, on third-order forms since the thirtieth round: fitted to their timings on one core (arm3, arm6, the UR5
+  // with armature, arm7, the iiwa, the Panda and the Jaco2 with armature, at 2-6 and 4-12 symbols) at 0.85 of them, the
+  // second-order forms' count's mean share on arm6: within 18 % of each (the Jaco2's time 17-18 % above its count,
+  // arm3's 9-13 % below), 1.25-1.88 times the second-order forms' count on six and seven joints. The structure is the
+  // one the twenty-eighth round fitted (docs/history.md).
+  const double forms = ahead * n2 * (3.74e-6 + 0.1376e-6 * terms) * (1.0 + 0.2 * model.centre_offsets);
   // The products' fit included two fine norm bounds (of η and ||E K||), which inverse_norm_upper no longer takes.
   const double products = ahead * (14.45e-6 + 14.45e-9 * n2 * n2 * s) + 2.0 * (gram - refinement);
   return {.inertia = 0.75e-6 * n3,

@@ -43,7 +43,8 @@ struct BoxForms {
   std::vector<double> symbols_at(const Eigen::VectorXd& q) const;
 };
 
-// `tensors`: N too (the Christoffel symbols of M's derivatives on forward-mode duals of the forms); otherwise M alone,
+// `tensors`: N too (the Christoffel symbols of M's derivatives on forward-mode duals), M and N then computed on
+// third-order forms (numerics/taylor3.hpp) and returned as second-order ones; otherwise M alone, on second-order forms,
 // its sensitivities from derivatives on intervals.
 BoxForms box_forms(const Model& model, const JointSearch& search, const std::vector<Interval>& box, bool tensors);
 

@@ -37,8 +37,9 @@ struct Dual {
 
 namespace dual_detail {
 
-// z = x + y, -x, x - y, s x, x y: written in place where the value type can (Taylor forms, numerics/taylor.hpp, whose
-// values are kilobytes: a temporary and its copy per derivative would cost as much as the arithmetic), else assigned.
+// z = x + y, -x, x - y, s x, x y: written in place where the value type can (Taylor forms, numerics/taylor.hpp and
+// taylor3.hpp, whose values are kilobytes: a temporary and its copy per derivative would cost as much as the
+// arithmetic), else assigned.
 template <class T>
 void sum(T& z, const T& x, const T& y) {
   if constexpr (requires { add_into(z, x, y); })
@@ -75,6 +76,18 @@ void product(T& z, const T& x, const T& y) {
     z = x * y;
 }
 
+// z += x y: in place where the value type can (third-order forms), else a product and a sum.
+template <class T>
+void product_added(T& z, const T& x, const T& y) {
+  if constexpr (requires { multiply_add_into(z, x, y); }) {
+    multiply_add_into(z, x, y);
+  } else {
+    T term;
+    product(term, x, y);
+    sum(z, z, term);
+  }
+}
+
 }  // namespace dual_detail
 
 template <class T>
@@ -106,11 +119,9 @@ Dual<T> operator*(const Dual<T>& a, const Dual<T>& b) {
   Dual<T> r;
   dual_detail::product(r.value, a.value, b.value);
   r.directions = std::max(a.directions, b.directions);
-  T left, right;
   for (int k = 0; k < r.directions; ++k) {
-    dual_detail::product(left, a.derivative[k], b.value);
-    dual_detail::product(right, a.value, b.derivative[k]);
-    dual_detail::sum(r.derivative[k], left, right);
+    dual_detail::product(r.derivative[k], a.derivative[k], b.value);
+    dual_detail::product_added(r.derivative[k], a.value, b.derivative[k]);
   }
   return r;
 }
@@ -158,9 +169,9 @@ Dual<T>& operator*=(Dual<T>& a, const Dual<T>& b) {
   return a = a * b;
 }
 
-// base + Σ_m x_m y_m, by the value type's own rule where it has one (Taylor forms gather the products' cubic terms
-// across the sum, numerics/taylor.hpp), else term by term. The x_m are the factors of few symbols (a joint's cos q,
-// sin q, cos 2q, sin 2q).
+// base + Σ_m x_m y_m, by the value type's own rule where it has one (second-order forms gather the products' cubic
+// terms across the sum, numerics/taylor.hpp; third-order ones add each product in place, numerics/taylor3.hpp), else
+// term by term. The x_m are the factors of few symbols (a joint's cos q, sin q, cos 2q, sin 2q).
 template <class T, std::size_t N>
 T sum_of_products(const T& base, const std::array<const T*, N>& x, const std::array<const T*, N>& y) {
   if constexpr (requires(T& z) { sum_of_products_into(z, base, x.data(), y.data(), 1); }) {
@@ -173,9 +184,10 @@ T sum_of_products(const T& base, const std::array<const T*, N>& x, const std::ar
     return z;
   }
 }
-// On duals, the value's sum by the value type's rule, and each derivative, Σ_m (x_m' y_m + x_m y_m'), term by term:
-// gathering the derivatives' cubic terms too cost a third more for the iiwa 14's forms, for a bound 1 % lower on its
-// widest boxes, and the searches ended higher (docs/theory.md, "Cubic terms gathered across a rotated inertia's sum").
+// On duals, the value's sum by the value type's rule, and each derivative, Σ_m (x_m' y_m + x_m y_m'), term by term, each
+// product added in place where the value type can. (On second-order forms, gathering the derivatives' cubic terms too
+// cost a third more for the iiwa 14's forms, for a bound 1 % lower on its widest boxes: docs/theory.md, "Cubic terms
+// gathered across a rotated inertia's sum"; third-order forms keep those terms.)
 template <class T, std::size_t N>
 Dual<T> sum_of_products(const Dual<T>& base, const std::array<const Dual<T>*, N>& x,
                         const std::array<const Dual<T>*, N>& y) {
@@ -188,31 +200,44 @@ Dual<T> sum_of_products(const Dual<T>& base, const std::array<const Dual<T>*, N>
   }
   Dual<T> r(sum_of_products(base.value, xv, yv));
   r.directions = directions;
-  T term;
   for (int k = 0; k < directions; ++k) {
     T& z = r.derivative[k];
     z = base.derivative[k];
     for (std::size_t m = 0; m < N; ++m) {
-      dual_detail::product(term, x[m]->derivative[k], y[m]->value);
-      dual_detail::sum(z, z, term);
-      dual_detail::product(term, x[m]->value, y[m]->derivative[k]);
-      dual_detail::sum(z, z, term);
+      dual_detail::product_added(z, x[m]->derivative[k], y[m]->value);
+      dual_detail::product_added(z, x[m]->value, y[m]->derivative[k]);
     }
   }
   return r;
 }
 
+// z += x y, component by component in place, for value types that multiply into a sum (third-order forms).
+template <class T>
+  requires requires(T& t, const T& u) { multiply_add_into(t, u, u); }
+void multiply_add(Dual<T>& z, const Dual<T>& x, const Dual<T>& y) {
+  multiply_add_into(z.value, x.value, y.value);
+  z.directions = std::max({z.directions, x.directions, y.directions});
+  for (int k = 0; k < z.directions; ++k) {
+    multiply_add_into(z.derivative[k], x.derivative[k], y.value);
+    multiply_add_into(z.derivative[k], x.value, y.derivative[k]);
+  }
+}
+
 // sum + c x, in place, component by component.
 template <class T>
 void add_product(Dual<T>& sum, double c, const Dual<T>& x) {
-  T term;
-  dual_detail::scaled(term, c, x.value);
-  dual_detail::sum(sum.value, sum.value, term);
+  const auto add = [c](T& s, const T& y) {
+    if constexpr (requires { scale_add_into(s, c, y); }) {
+      scale_add_into(s, c, y);
+    } else {
+      T term;
+      dual_detail::scaled(term, c, y);
+      dual_detail::sum(s, s, term);
+    }
+  };
+  add(sum.value, x.value);
   sum.directions = std::max(sum.directions, x.directions);
-  for (int k = 0; k < x.directions; ++k) {
-    dual_detail::scaled(term, c, x.derivative[k]);
-    dual_detail::sum(sum.derivative[k], sum.derivative[k], term);
-  }
+  for (int k = 0; k < x.directions; ++k) add(sum.derivative[k], x.derivative[k]);
 }
 
 // sum + c x for a negligible constant c, component by component by the value type's own rule where it has one

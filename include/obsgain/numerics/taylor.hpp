@@ -180,22 +180,30 @@ inline void subtract_into(Taylor& z, const Taylor& x, const Taylor& y) {
   add_into(z, x, minus_y);
 }
 
-// z = s x: each product rounded within 2⁻⁵² of its modulus, which is at most (1 + 2⁻⁵²) |s| times the coefficient's.
-// Products by 0 and ±1 are exact (a constant rotation's or an axis' entries): taken without arithmetic, 0 x as the
-// exact zero. z may be x.
-inline void scale_into(Taylor& z, double s, const Taylor& x) {
+namespace taylor_detail {
+
+// z = s x where that is exact (s is 0 or ±1, or x the exact zero; a constant rotation's or an axis' entries), taken
+// without arithmetic, 0 x as the exact zero: whether it was. For second- and third-order forms (taylor3.hpp) alike.
+template <class Form>
+bool scaled_exactly(Form& z, double s, const Form& x) {
   if (x.is_zero() || s == 1.0) {
     z = x;
-    return;
-  }
-  if (s == 0.0) {
-    z = Taylor(0.0);
-    return;
-  }
-  if (s == -1.0) {
+  } else if (s == 0.0) {
+    z = Form(0.0);
+  } else if (s == -1.0) {
     negate_into(z, x);
-    return;
+  } else {
+    return false;
   }
+  return true;
+}
+
+}  // namespace taylor_detail
+
+// z = s x: each product rounded within 2⁻⁵² of its modulus, which is at most (1 + 2⁻⁵²) |s| times the coefficient's;
+// by 0 and ±1 exactly. z may be x.
+inline void scale_into(Taylor& z, double s, const Taylor& x) {
+  if (taylor_detail::scaled_exactly(z, s, x)) return;
   double moduli = std::abs(x.c);
   for (int k = 0; k < x.symbols; ++k) moduli += std::abs(x.a[k]);
   for (int p = 0; p < pair_count(x.symbols); ++p) moduli += std::abs(x.b[p]);
