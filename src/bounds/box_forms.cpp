@@ -135,24 +135,17 @@ class ThirdOrderForms {
     y.r = up(x.r + x.sizes().cubic);
     return y;
   }
-  // christoffel_tensors_from (model/dynamics.hpp) in place, each symbol converted once and copied to its mirror.
+  // The Christoffel symbols on the third-order forms (their three derivatives' cubic terms cancel there too), each
+  // converted once and copied to its mirror.
   void christoffel_tensors(const std::vector<Dual<Taylor3>>& M) const {
     const int n = f_.n;
-    std::vector<int> direction(static_cast<std::size_t>(n), -1);
-    for (int d = 0; d < m_; ++d) direction[search_.joints[d]] = d;
-    const Taylor3 zero(0.0);
-    const auto dM = [&](int i, int j, int k) -> const Taylor3& {
-      return direction[k] < 0 ? zero : M[i * n + j].derivative[direction[k]];
-    };
-    f_.N.resize(static_cast<std::size_t>(n * n * n));
-    Taylor3 sum, symbol;
+    std::vector<Taylor3> N(static_cast<std::size_t>(n * n * n));
+    christoffel_tensors_from(n, search_.joints, M, N.data());
+    f_.N.resize(N.size());
     for (int i = 0; i < n; ++i)
       for (int j = 0; j < n; ++j)
         for (int k = j; k < n; ++k) {
-          add_into(sum, dM(i, j, k), dM(i, k, j));
-          subtract_into(sum, sum, dM(j, k, i));
-          scale_into(symbol, 0.5, sum);
-          f_.N[(i * n + j) * n + k] = second_order(symbol);
+          f_.N[(i * n + j) * n + k] = second_order(N[(i * n + j) * n + k]);
           f_.N[(i * n + k) * n + j] = f_.N[(i * n + j) * n + k];
         }
   }
@@ -211,11 +204,15 @@ BoxForms box_forms(const Model& model, const JointSearch& search, const std::vec
     f.side_of[f.sides[k].symbol] = k;
     if (f.sides[k].arc_symbol >= 0) f.side_of[f.sides[k].arc_symbol] = k;
   }
+  const auto entries = static_cast<std::size_t>(f.n * f.n);
+  f.M.resize(entries);
+  if (chain && tensors) {
+    ThirdOrderForms(*chain, search, f).compute();
+    return f;
+  }
   std::vector<Taylor> q(static_cast<std::size_t>(f.n));
   for (int i = 0; i < f.n; ++i) q[i] = Taylor(search.fixed_q(i));
   for (int k = 0; k < m; ++k) q[search.joints[k]] = Taylor::symbol(f.sides[k].centre, f.sides[k].radius, f.sides[k].symbol);
-  const auto entries = static_cast<std::size_t>(f.n * f.n);
-  f.M.resize(entries);
   if (!chain) {  // the planar family: one searched joint, no split to choose
     mass_matrix_of(model, q.data(), f.M.data());
     f.sensitivity = planar_sensitivities(f.M, m);
@@ -225,18 +222,15 @@ BoxForms box_forms(const Model& model, const JointSearch& search, const std::vec
     }
     return f;
   }
+  // M alone: the derivatives' enclosures by intervals, cheaper than on forms.
   f.sensitivity.assign(static_cast<std::size_t>(m), 0.0);
-  if (!tensors) {  // M alone: the derivatives' enclosures by intervals, cheaper than on forms
-    chain_mass_matrix(*chain, *box_kinematics(*chain, q, f, search.joints), f.M.data());
-    std::vector<Interval> qi(static_cast<std::size_t>(f.n));
-    for (int i = 0; i < f.n; ++i) qi[i] = Interval(search.fixed_q(i));
-    for (int k = 0; k < m; ++k) qi[search.joints[k]] = box[k];
-    const std::vector<Dual<Interval>> M = mass_matrix_with_derivatives(model, search.joints, qi.data());
-    for (std::size_t e = 0; e < entries; ++e)
-      for (int k = 0; k < m; ++k) f.sensitivity[k] += f.sides[k].radius * boost::numeric::norm(M[e].derivative[k]);
-    return f;
-  }
-  ThirdOrderForms(*chain, search, f).compute();
+  chain_mass_matrix(*chain, *box_kinematics(*chain, q, f, search.joints), f.M.data());
+  std::vector<Interval> qi(static_cast<std::size_t>(f.n));
+  for (int i = 0; i < f.n; ++i) qi[i] = Interval(search.fixed_q(i));
+  for (int k = 0; k < m; ++k) qi[search.joints[k]] = box[k];
+  const std::vector<Dual<Interval>> M = mass_matrix_with_derivatives(model, search.joints, qi.data());
+  for (std::size_t e = 0; e < entries; ++e)
+    for (int k = 0; k < m; ++k) f.sensitivity[k] += f.sides[k].radius * boost::numeric::norm(M[e].derivative[k]);
   return f;
 }
 

@@ -56,6 +56,11 @@ template <class S>
 void add_product(S& sum, double c, const S& x) {
   sum = sum + c * x;
 }
+// z + x y, in place where the scalar can (duals of third-order forms, found by argument-dependent lookup).
+template <class S>
+void multiply_add(S& z, const S& x, const S& y) {
+  z = z + x * y;
+}
 // sum + c x for a negligible c: by the scalar's own rule where it has one, found by argument-dependent lookup
 // (Taylor forms and their duals bound |c x| into the remainder), else the product itself.
 template <class S>
@@ -184,20 +189,15 @@ Vec3<S> rodrigues(const Eigen::Vector3d& a, const S& c, const S& s, const Vec3<S
   const Eigen::Matrix3d along = a * a.transpose();
   const Eigen::Matrix3d across = Eigen::Matrix3d::Identity() - along;
   const Vec3<S> parallel = rotate(along, v), perpendicular = rotate(across, v), axv = cross(a, v);
-  if constexpr (requires(S& z) { multiply_add(z, c, s); }) {
-    // In place where the scalar multiplies into a sum (duals of third-order forms), the sign exactly on s.
-    const S signed_s = sign > 0.0 ? s : -s;
-    const auto component = [&](int i) {
-      S z = parallel[i];
-      multiply_add(z, perpendicular[i], c);
-      multiply_add(z, axv[i], signed_s);
-      return z;
-    };
-    return {component(0), component(1), component(2)};
-  } else {
-    const auto component = [&](int i) { return parallel[i] + perpendicular[i] * c + sign * (axv[i] * s); };
-    return {component(0), component(1), component(2)};
-  }
+  // ±s is exact, and so is a product by it: the sign goes on s, and each component is one sum of products.
+  const S signed_s = sign > 0.0 ? s : -s;
+  const auto component = [&](int i) {
+    S z = parallel[i];
+    multiply_add(z, perpendicular[i], c);
+    multiply_add(z, axv[i], signed_s);
+    return z;
+  };
+  return {component(0), component(1), component(2)};
 }
 
 // From body i's frame into body i-1's, and back.

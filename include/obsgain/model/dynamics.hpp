@@ -65,7 +65,10 @@ template <class S>
 void christoffel_tensors_from(int n, const std::vector<int>& joints, const std::vector<Dual<S>>& M, S* N) {
   std::vector<int> direction(static_cast<std::size_t>(n), -1);
   for (std::size_t d = 0; d < joints.size(); ++d) direction[joints[d]] = static_cast<int>(d);
-  const auto dM = [&](int i, int j, int k) { return direction[k] < 0 ? S(0.0) : M[i * n + j].derivative[direction[k]]; };
+  const S zero(0.0);
+  const auto dM = [&](int i, int j, int k) -> const S& {
+    return direction[k] < 0 ? zero : M[i * n + j].derivative[direction[k]];
+  };
   for (int i = 0; i < n; ++i)
     for (int j = 0; j < n; ++j)
       for (int k = j; k < n; ++k) {

@@ -211,7 +211,8 @@ Dual<T> sum_of_products(const Dual<T>& base, const std::array<const Dual<T>*, N>
   return r;
 }
 
-// z += x y, component by component in place, for value types that multiply into a sum (third-order forms).
+// z += x y, component by component in place, for value types that multiply into a sum (third-order forms; any other
+// scalar takes chain_detail::multiply_add's z + x y, model/chain_dynamics.hpp).
 template <class T>
   requires requires(T& t, const T& u) { multiply_add_into(t, u, u); }
 void multiply_add(Dual<T>& z, const Dual<T>& x, const Dual<T>& y) {
