@@ -139,15 +139,11 @@ class ThirdOrderForms {
   // converted once and copied to its mirror.
   void christoffel_tensors(const std::vector<Dual<Taylor3>>& M) const {
     const int n = f_.n;
-    std::vector<Taylor3> N(static_cast<std::size_t>(n * n * n));
-    christoffel_tensors_from(n, search_.joints, M, N.data());
-    f_.N.resize(N.size());
-    for (int i = 0; i < n; ++i)
-      for (int j = 0; j < n; ++j)
-        for (int k = j; k < n; ++k) {
-          f_.N[(i * n + j) * n + k] = second_order(N[(i * n + j) * n + k]);
-          f_.N[(i * n + k) * n + j] = f_.N[(i * n + j) * n + k];
-        }
+    f_.N.resize(static_cast<std::size_t>(n * n * n));
+    for_each_christoffel_symbol(n, search_.joints, M, [&](int i, int j, int k, const Taylor3& symbol) {
+      f_.N[(i * n + j) * n + k] = second_order(symbol);
+      f_.N[(i * n + k) * n + j] = f_.N[(i * n + j) * n + k];
+    });
   }
 
   const SerialChain& chain_;

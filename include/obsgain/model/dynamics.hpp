@@ -61,8 +61,10 @@ std::vector<Dual<S>> mass_matrix_with_derivatives(const Model& model, const std:
 // derivatives along `joints` (every joint M depends on: the other derivatives vanish). On Taylor forms the three
 // derivatives share their noise symbols, so their first- and second-order parts combine exactly and only third-order
 // remainders add: no enclosure is subtracted from another (docs/theory.md, "Taylor forms").
-template <class S>
-void christoffel_tensors_from(int n, const std::vector<int>& joints, const std::vector<Dual<S>>& M, S* N) {
+// `emit(i, j, k, N_i[j][k])` for every k >= j (N_i[k][j] is the same): each symbol is formed once, where the caller
+// takes it, and no tensor of forms (kilobytes each) is allocated on the way.
+template <class S, class Emit>
+void for_each_christoffel_symbol(int n, const std::vector<int>& joints, const std::vector<Dual<S>>& M, Emit&& emit) {
   std::vector<int> direction(static_cast<std::size_t>(n), -1);
   for (std::size_t d = 0; d < joints.size(); ++d) direction[joints[d]] = static_cast<int>(d);
   const S zero(0.0);
@@ -71,10 +73,14 @@ void christoffel_tensors_from(int n, const std::vector<int>& joints, const std::
   };
   for (int i = 0; i < n; ++i)
     for (int j = 0; j < n; ++j)
-      for (int k = j; k < n; ++k) {
-        N[(i * n + j) * n + k] = 0.5 * (dM(i, j, k) + dM(i, k, j) - dM(j, k, i));
-        N[(i * n + k) * n + j] = N[(i * n + j) * n + k];
-      }
+      for (int k = j; k < n; ++k) emit(i, j, k, S(0.5 * (dM(i, j, k) + dM(i, k, j) - dM(j, k, i))));
+}
+template <class S>
+void christoffel_tensors_from(int n, const std::vector<int>& joints, const std::vector<Dual<S>>& M, S* N) {
+  for_each_christoffel_symbol(n, joints, M, [&](int i, int j, int k, const S& symbol) {
+    N[(i * n + j) * n + k] = symbol;
+    N[(i * n + k) * n + j] = symbol;
+  });
 }
 
 template <class S>
