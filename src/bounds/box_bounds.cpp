@@ -117,7 +117,7 @@ BoxBound route_through(const Model& model, const FloorRoute& route, const BoxFor
 // inequality with Latała and Oleszkiewicz's constant), sqrt(Σ_j V_j² ||P_j||_F²). Where this is above a bound already
 // proven, the route could not win and is not taken (docs/theory.md, "M⁻¹ over a box"). Through G: of G M G and
 // G J G, times the route's factors. A choice of work, not a bound: computed in floating point, G's products as
-// diagonal scalings (a dense G cost a heap product per part and joint: 3 % of a search on the Jaco2).
+// diagonal scalings (a dense G cost a heap product per part and joint: 4 % of a search on the Jaco2).
 double route_at_least(const FloorRoute& route, const BoxForms& d, const std::vector<TaylorMatrix>& J,
                       const Eigen::VectorXd& V, const Eigen::MatrixXd& W) {
   const auto G = route.g.asDiagonal();
