@@ -189,8 +189,12 @@ Vec3<S> rodrigues(const Eigen::Vector3d& a, const S& c, const S& s, const Vec3<S
   const Eigen::Matrix3d along = a * a.transpose();
   const Eigen::Matrix3d across = Eigen::Matrix3d::Identity() - along;
   const Vec3<S> parallel = rotate(along, v), perpendicular = rotate(across, v), axv = cross(a, v);
-  // ±s is exact, and so is a product by it: the sign goes on s, and each component is one sum of products.
-  const S signed_s = sign > 0.0 ? s : -s;
+  // ±s is exact, and so is a product by it: the sign goes on s, and each component is one sum of products. +s is s
+  // itself, not a copy (a dual of third-order forms is kilobytes, and the recursions turn vectors forward as often
+  // as back).
+  S negated_s;
+  if (!(sign > 0.0)) negated_s = -s;
+  const S& signed_s = sign > 0.0 ? s : negated_s;
   const auto component = [&](int i) {
     S z = parallel[i];
     multiply_add(z, perpendicular[i], c);
@@ -200,19 +204,24 @@ Vec3<S> rodrigues(const Eigen::Vector3d& a, const S& c, const S& s, const Vec3<S
   return {component(0), component(1), component(2)};
 }
 
-// From body i's frame into body i-1's, and back.
+// From body i's frame into body i-1's, and back. A joint placed without a rotation (P_i = 1) skips it: the
+// combination by 1 would give each component back exactly, through a copy of kilobytes.
 template <class S>
 Vec3<S> to_parent(const SerialChain& chain, const ChainKinematics<S>& k, int i, const Vec3<S>& v) {
   if constexpr (std::is_same_v<S, double>) return rotate(k.rotation[i], v);
   const ChainJoint& joint = chain.joints[i];
-  return rotate(joint.rotation, joint.type == JointType::revolute ? rodrigues(joint.axis, k.c[i], k.s[i], v, 1.0) : v);
+  const bool revolute = joint.type == JointType::revolute;
+  if (joint.rotation.isIdentity(0.0)) return revolute ? rodrigues(joint.axis, k.c[i], k.s[i], v, 1.0) : v;
+  return rotate(joint.rotation, revolute ? rodrigues(joint.axis, k.c[i], k.s[i], v, 1.0) : v);
 }
 template <class S>
 Vec3<S> from_parent(const SerialChain& chain, const ChainKinematics<S>& k, int i, const Vec3<S>& v) {
   if constexpr (std::is_same_v<S, double>) return rotate_back(k.rotation[i], v);
   const ChainJoint& joint = chain.joints[i];
+  const bool revolute = joint.type == JointType::revolute;
+  if (joint.rotation.isIdentity(0.0)) return revolute ? rodrigues(joint.axis, k.c[i], k.s[i], v, -1.0) : v;
   const Vec3<S> u = rotate(Eigen::Matrix3d(joint.rotation.transpose()), v);
-  return joint.type == JointType::revolute ? rodrigues(joint.axis, k.c[i], k.s[i], u, -1.0) : u;
+  return revolute ? rodrigues(joint.axis, k.c[i], k.s[i], u, -1.0) : u;
 }
 
 }  // namespace chain_detail
