@@ -76,21 +76,22 @@ inline constexpr double kSmallCoefficient = 1e-8;
 inline bool negligible_coefficient(double c, double largest) { return std::abs(c) <= kSmallCoefficient * largest; }
 // Σ_j c_j x_j for constant c: on enclosures the zero coefficients are skipped and the negligible ones bounded (an axis
 // along a coordinate axis makes most of them zero, and every product and sum of forms costs work and adds rounding);
-// in double, the plain sum.
+// in double, the plain sum. One return of one named sum, so that the sum is formed in the caller's object (a second
+// return, even in a discarded branch, made GCC copy the kilobytes of a dual of forms on the way out).
 template <class S>
 S combine(double c0, const S& x0, double c1, const S& x1, double c2, const S& x2) {
+  S sum(0.0);
   if constexpr (std::is_same_v<S, double>) {
-    return c0 * x0 + c1 * x1 + c2 * x2;
+    sum = c0 * x0 + c1 * x1 + c2 * x2;
   } else {
     const std::array<std::pair<double, const S*>, 3> terms{{{c0, &x0}, {c1, &x1}, {c2, &x2}}};
     const double largest = std::max({std::abs(c0), std::abs(c1), std::abs(c2)});
-    S sum(0.0);
     for (const auto& [c, x] : terms)
       if (!negligible_coefficient(c, largest)) add_product(sum, c, *x);
     for (const auto& [c, x] : terms)
       if (c != 0.0 && negligible_coefficient(c, largest)) add_small_product(sum, c, *x);
-    return sum;
   }
+  return sum;
 }
 // R v for a constant R (not named apply: std::apply would join the overload set through std::array). The components
 // are formed in place rather than assigned: a dual of Taylor forms is kilobytes, and the recursions rotate a few
@@ -188,7 +189,7 @@ template <class S>
 Vec3<S> rodrigues(const Eigen::Vector3d& a, const S& c, const S& s, const Vec3<S>& v, double sign) {
   const Eigen::Matrix3d along = a * a.transpose();
   const Eigen::Matrix3d across = Eigen::Matrix3d::Identity() - along;
-  const Vec3<S> parallel = rotate(along, v), perpendicular = rotate(across, v), axv = cross(a, v);
+  const Vec3<S> perpendicular = rotate(across, v), axv = cross(a, v);
   // ±s is exact, and so is a product by it: the sign goes on s, and each component is one sum of products. +s is s
   // itself, not a copy (a dual of third-order forms is kilobytes, and the recursions turn vectors forward as often
   // as back).
@@ -196,7 +197,7 @@ Vec3<S> rodrigues(const Eigen::Vector3d& a, const S& c, const S& s, const Vec3<S
   if (!(sign > 0.0)) negated_s = -s;
   const S& signed_s = sign > 0.0 ? s : negated_s;
   const auto component = [&](int i) {
-    S z = parallel[i];
+    S z = combine(along(i, 0), v[0], along(i, 1), v[1], along(i, 2), v[2]);  // (a aᵀ v)_i, formed where it is summed
     multiply_add(z, perpendicular[i], c);
     multiply_add(z, axv[i], signed_s);
     return z;
@@ -338,17 +339,24 @@ CompositeInertia<S> body_inertia(const RigidBody& body) {
   return I;
 }
 
+// Which entries of a symmetric 3 x 3 result are formed: all, or those on and above the diagonal (the ones below left
+// zero) for a reader that takes (r, c) with r <= c only. add_to_parent is one: a rotated inertia's entries below the
+// diagonal cost a third of its sums of products and were never read.
+enum class Entries { all, upper };
 // The rows of a 3 x 3 matrix from its entries `entry(r, c)`, each formed in place (a brace list evaluates in order).
 template <class S, class Entry>
-std::array<Vec3<S>, 3> rows_of(const Entry& entry) {
-  const auto row = [&](int r) { return Vec3<S>{entry(r, 0), entry(r, 1), entry(r, 2)}; };
+std::array<Vec3<S>, 3> rows_of(const Entry& entry, Entries formed) {
+  const auto at = [&](int r, int c) { return formed == Entries::upper && r > c ? S(0.0) : entry(r, c); };
+  const auto row = [&](int r) { return Vec3<S>{at(r, 0), at(r, 1), at(r, 2)}; };
   return {row(0), row(1), row(2)};
 }
 // Rows of X = A I Bᵀ for constant A, B and a symmetric I given by its rows.
 template <class S>
-std::array<Vec3<S>, 3> sandwich(const Eigen::Matrix3d& A, const std::array<Vec3<S>, 3>& I, const Eigen::Matrix3d& B) {
+std::array<Vec3<S>, 3> sandwich(const Eigen::Matrix3d& A, const std::array<Vec3<S>, 3>& I, const Eigen::Matrix3d& B,
+                                Entries formed) {
   const std::array<Vec3<S>, 3> IB{rotate(B, I[0]), rotate(B, I[1]), rotate(B, I[2])};  // I Bᵀ: row r is (B I_r)ᵀ
-  return rows_of<S>([&](int r, int c) { return combine(A(r, 0), IB[0][c], A(r, 1), IB[1][c], A(r, 2), IB[2][c]); });
+  const auto entry = [&](int r, int c) { return combine(A(r, 0), IB[0][c], A(r, 1), IB[1][c], A(r, 2), IB[2][c]); };
+  return rows_of<S>(entry, formed);
 }
 
 // Rot I Rotᵀ for Rot = Rot(a, q) on enclosures. With Rot = A0 + c A1 + s A2 (A0 = a aᵀ, A1 = 1 - a aᵀ, A2 = [a×]) and
@@ -363,19 +371,44 @@ std::array<Vec3<S>, 3> sandwich(const Eigen::Matrix3d& A, const std::array<Vec3<
 // inertia's sum").
 template <class S>
 std::array<Vec3<S>, 3> rotated_inertia(const Eigen::Vector3d& a, const S& c, const S& s, const S& c2, const S& s2,
-                                       const std::array<Vec3<S>, 3>& I) {
+                                       const std::array<Vec3<S>, 3>& I, Entries formed) {
   const Eigen::Matrix3d A0 = a * a.transpose(), A1 = Eigen::Matrix3d::Identity() - A0;
   Eigen::Matrix3d A2;
   A2 << 0.0, -a.z(), a.y(), a.z(), 0.0, -a.x(), -a.y(), a.x(), 0.0;
-  const auto I00 = sandwich(A0, I, A0), I11 = sandwich(A1, I, A1), I22 = sandwich(A2, I, A2);
-  const auto I01 = sandwich(A0, I, A1), I02 = sandwich(A0, I, A2), I12 = sandwich(A1, I, A2);
+  // An entry (r, k) reads I00, I11 and I22 at (r, k) only, the other three at (r, k) and (k, r).
+  const auto I00 = sandwich(A0, I, A0, formed), I11 = sandwich(A1, I, A1, formed), I22 = sandwich(A2, I, A2, formed);
+  const auto I01 = sandwich(A0, I, A1, Entries::all), I02 = sandwich(A0, I, A2, Entries::all);
+  const auto I12 = sandwich(A1, I, A2, Entries::all);
   const auto entry = [&](int r, int k) {
     const S T0 = I00[r][k] + 0.5 * (I11[r][k] + I22[r][k]);
     const S T1 = I01[r][k] + I01[k][r], T2 = I02[r][k] + I02[k][r];
     const S T3 = 0.5 * (I11[r][k] - I22[r][k]), T4 = 0.5 * (I12[r][k] + I12[k][r]);
     return sum_of_products(T0, std::array<const S*, 4>{&c, &s, &c2, &s2}, std::array<const S*, 4>{&T1, &T2, &T3, &T4});
   };
-  return rows_of<S>(entry);
+  return rows_of<S>(entry, formed);
+}
+
+// Rows of R I Rᵀ for body i's R = P_i Rot(a_i, q_i) and a symmetric I given by its rows, returned where they are
+// formed (a dual of forms is kilobytes: an assignment would copy nine). On enclosures' revolute joints only the entries
+// on and above the diagonal are formed (Entries::upper).
+template <class S>
+std::array<Vec3<S>, 3> turned_to_parent(const SerialChain& chain, const ChainKinematics<S>& k, int i,
+                                        const std::array<Vec3<S>, 3>& I) {
+  const ChainJoint& joint = chain.joints[i];
+  if constexpr (!std::is_same_v<S, double>) {
+    if (joint.type == JointType::revolute) {
+      // P = 1 (a joint placed without a rotation) would give each entry back, by a copy.
+      if (joint.rotation.isIdentity(0.0))
+        return rotated_inertia(joint.axis, k.c[i], k.s[i], k.c2[i], k.s2[i], I, Entries::upper);
+      const auto turned = rotated_inertia(joint.axis, k.c[i], k.s[i], k.c2[i], k.s2[i], I, Entries::all);
+      return sandwich(joint.rotation, turned, joint.rotation, Entries::upper);
+    }
+  }
+  // R I Rᵀ = (R (R I)ᵀ)ᵀ: rotate I's columns (its rows, by symmetry) into T = R I, then T's rows.
+  std::array<Vec3<S>, 3> columns;  // columns[j] = T's column j
+  for (int j = 0; j < 3; ++j) columns[j] = to_parent(chain, k, i, I[j]);
+  const auto row = [&](int r) { return to_parent(chain, k, i, Vec3<S>{columns[0][r], columns[1][r], columns[2][r]}); };
+  return {row(0), row(1), row(2)};
 }
 
 // Body i's composite inertia expressed about body i-1's origin, in its frame: h' = R h + m p, and
@@ -383,31 +416,20 @@ std::array<Vec3<S>, 3> rotated_inertia(const Eigen::Vector3d& a, const S& c, con
 template <class S>
 void add_to_parent(const SerialChain& chain, const ChainKinematics<S>& k, int i, const CompositeInertia<S>& child,
                    CompositeInertia<S>& parent) {
-  std::array<Vec3<S>, 3> rotated;  // rows of R I Rᵀ
-  const ChainJoint& joint = chain.joints[i];
-  if constexpr (!std::is_same_v<S, double>) {
-    if (joint.type == JointType::revolute) {
-      const Eigen::Matrix3d& P = joint.rotation;
-      rotated = sandwich(P, rotated_inertia(joint.axis, k.c[i], k.s[i], k.c2[i], k.s2[i], child.rotational), P);
-    }
-  }
-  if (std::is_same_v<S, double> || joint.type != JointType::revolute) {
-    // R I Rᵀ = (R (R I)ᵀ)ᵀ: rotate I's columns (its rows, by symmetry) into T = R I, then T's rows.
-    std::array<Vec3<S>, 3> columns;  // columns[j] = T's column j
-    for (int j = 0; j < 3; ++j) columns[j] = to_parent(chain, k, i, child.rotational[j]);
-    for (int r = 0; r < 3; ++r) rotated[r] = to_parent(chain, k, i, Vec3<S>{columns[0][r], columns[1][r], columns[2][r]});
-  }
+  const std::array<Vec3<S>, 3> rotated = turned_to_parent(chain, k, i, child.rotational);
   const Vec3<S> h = to_parent(chain, k, i, child.moment);
   const Vec3<S>& p = k.p[i];
   parent.mass += child.mass;
-  parent.moment = add(parent.moment, add(h, times(child.mass, p)));
+  for (int r = 0; r < 3; ++r) parent.moment[r] += h[r] + child.mass * p[r];
   // -[a×][b×] v = -a × (b × v) = (a·b) v - b (a·v): entry (r, c) = (a·b) δ_rc - b_r a_c.
   const S pp = p[0] * p[0] + p[1] * p[1] + p[2] * p[2], ph = p[0] * h[0] + p[1] * h[1] + p[2] * h[2];
   for (int r = 0; r < 3; ++r)
     for (int c = 0; c < 3; ++c) {
       S shift = child.mass * (-(p[r] * p[c])) - p[r] * h[c] - h[r] * p[c];
       if (r == c) shift = shift + child.mass * pp + 2.0 * ph;
-      parent.rotational[r][c] = parent.rotational[r][c] + (r <= c ? rotated[r][c] : rotated[c][r]) + shift;
+      S& entry = parent.rotational[r][c];  // summed in place: the sum of three duals of forms, without its copy
+      entry += r <= c ? rotated[r][c] : rotated[c][r];
+      entry += shift;
     }
 }
 
@@ -453,7 +475,7 @@ void chain_mass_matrix(const SerialChain& chain, const ChainKinematics<S>& k, S*
       S value = dot(joint.axis, joint.type == JointType::revolute ? K : L);
       if (j == i && chain.armature.size() > i && chain.armature[i] != 0.0) value = value + chain.armature[i];
       M[j * n + i] = value;
-      M[i * n + j] = value;
+      if (j != i) M[i * n + j] = value;
     }
   }
 }

@@ -26,6 +26,19 @@ struct Dual {
   Dual() {}  // NOLINT(modernize-use-equals-default)
   Dual(double v) : value(v) {}  // NOLINT: constants mix freely with duals
   Dual(const T& v) : value(v) {}  // NOLINT
+  // Copies only the derivatives in use (those beyond are zero): seven derivatives of Taylor forms are kilobytes, and
+  // a box's forms copy thousands of duals.
+  Dual(const Dual& x) : value(x.value), directions(x.directions) {
+    std::copy_n(x.derivative.begin(), directions, derivative.begin());
+  }
+  Dual& operator=(const Dual& x) {
+    if (this == &x) return *this;
+    value = x.value;
+    std::copy_n(x.derivative.begin(), x.directions, derivative.begin());
+    for (int k = x.directions; k < directions; ++k) derivative[k] = T(0.0);
+    directions = x.directions;
+    return *this;
+  }
   // The variable q_k: value v, derivative e_k.
   static Dual variable(const T& v, int k, int directions) {
     Dual d(v);
@@ -169,20 +182,24 @@ Dual<T>& operator*=(Dual<T>& a, const Dual<T>& b) {
   return a = a * b;
 }
 
-// base + Σ_m x_m y_m, by the value type's own rule where it has one (second-order forms gather the products' cubic
+// z = base + Σ_m x_m y_m, by the value type's own rule where it has one (second-order forms gather the products' cubic
 // terms across the sum, numerics/taylor.hpp; third-order ones add each product in place, numerics/taylor3.hpp), else
-// term by term. The x_m are the factors of few symbols (a joint's cos q, sin q, cos 2q, sin 2q).
+// term by term. The x_m are the factors of few symbols (a joint's cos q, sin q, cos 2q, sin 2q). Written into z, so
+// that a dual's value is formed in place (a returned form would be copied into it: kilobytes).
+template <class T, std::size_t N>
+void sum_of_products_to(T& z, const T& base, const std::array<const T*, N>& x, const std::array<const T*, N>& y) {
+  if constexpr (requires { sum_of_products_into(z, base, x.data(), y.data(), 1); }) {
+    sum_of_products_into(z, base, x.data(), y.data(), static_cast<int>(N));
+  } else {
+    z = base;
+    for (std::size_t m = 0; m < N; ++m) z = z + *x[m] * *y[m];
+  }
+}
 template <class T, std::size_t N>
 T sum_of_products(const T& base, const std::array<const T*, N>& x, const std::array<const T*, N>& y) {
-  if constexpr (requires(T& z) { sum_of_products_into(z, base, x.data(), y.data(), 1); }) {
-    T z;
-    sum_of_products_into(z, base, x.data(), y.data(), static_cast<int>(N));
-    return z;
-  } else {
-    T z = base;
-    for (std::size_t m = 0; m < N; ++m) z = z + *x[m] * *y[m];
-    return z;
-  }
+  T z;
+  sum_of_products_to(z, base, x, y);
+  return z;
 }
 // On duals, the value's sum by the value type's rule, and each derivative, Σ_m (x_m' y_m + x_m y_m'), term by term, each
 // product added in place where the value type can. (On second-order forms, gathering the derivatives' cubic terms too
@@ -198,7 +215,8 @@ Dual<T> sum_of_products(const Dual<T>& base, const std::array<const Dual<T>*, N>
     yv[m] = &y[m]->value;
     directions = std::max({directions, x[m]->directions, y[m]->directions});
   }
-  Dual<T> r(sum_of_products(base.value, xv, yv));
+  Dual<T> r;
+  sum_of_products_to(r.value, base.value, xv, yv);
   r.directions = directions;
   for (int k = 0; k < directions; ++k) {
     T& z = r.derivative[k];
