@@ -149,6 +149,38 @@ TEST(ThirdOrderForms, InPlaceOperationsAgreeWithTheOperators) {
   }
 }
 
+// A dual copies only the derivatives in use (numerics/dual.hpp): a copy keeps them to the bit, and a dual assigned one
+// of fewer directions reads zero beyond them, so that a later sum with a dual of more directions is that dual's
+// derivatives exactly, as from a fresh dual.
+TEST(ThirdOrderForms, DualsCopyTheDerivativesInUseAndAreZeroBeyond) {
+  using DualForm = obsgain::Dual<Taylor3>;
+  const Taylor3 x = cos(Taylor3::symbol(0.3, 0.2, 0)) * Taylor3::symbol(2.0, 0.5, 2);
+  DualForm wide = DualForm::variable(x, 0, 3);
+  wide.derivative[1] = 0.5 * x;
+  wide.derivative[2] = x * x;
+  const DualForm copy(wide);
+  ASSERT_EQ(copy.directions, 3);
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_EQ(copy.derivative[k].c, wide.derivative[k].c);
+    EXPECT_EQ(copy.derivative[k].r, wide.derivative[k].r);
+    ASSERT_EQ(copy.derivative[k].s1, wide.derivative[k].s1);
+    for (int i = 0; i < copy.derivative[k].s1; ++i) EXPECT_EQ(copy.derivative[k].a[i], wide.derivative[k].a[i]);
+  }
+  DualForm narrowed = wide;
+  narrowed = DualForm::variable(Taylor3(1.5), 0, 1);
+  ASSERT_EQ(narrowed.directions, 1);
+  EXPECT_TRUE(narrowed.derivative[1].is_zero());
+  EXPECT_TRUE(narrowed.derivative[2].is_zero());
+  const DualForm sum = narrowed + wide, fresh = DualForm::variable(Taylor3(1.5), 0, 1) + wide;
+  ASSERT_EQ(sum.directions, 3);
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_EQ(sum.derivative[k].c, fresh.derivative[k].c);
+    EXPECT_EQ(sum.derivative[k].r, fresh.derivative[k].r);
+    ASSERT_EQ(sum.derivative[k].s1, fresh.derivative[k].s1);
+  }
+  EXPECT_EQ(sum.derivative[2].c, wide.derivative[2].c);  // x² + 0: x²'s centre, exactly
+}
+
 // The cosine and sine of a narrow angle are exact to the third order: sin(π/2 + 0.1 ε) = 1 - 0.005 ε² + R with no
 // cubic term and |R| <= 0.1⁴/24; cos(0.1 ε) = 1 - 0.005 ε² likewise; sin(0.1 ε) = 0.1 ε - 0.1³/6 ε³ + R.
 TEST(ThirdOrderForms, NarrowAnglesAreExpandedToTheThirdOrder) {
