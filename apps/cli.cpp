@@ -129,6 +129,7 @@ void add_certificate_options(CLI::App& app, DesignArguments& a) {
       ->type_name("SECONDS");
   app.add_option("--checkpoint", a.checkpoint,
                  "certified bounds: save the searches to FILE every 5 s, so that a killed job can --resume FILE")
+      ->check(writable_file())
       ->type_name("FILE");
   app.add_option("--resume", a.resume,
                  "certified bounds: continue the searches FILE holds (a checkpoint of the same robot and request), "
@@ -389,6 +390,23 @@ ValidationTarget load_validation_target(const DesignArguments& design, const std
   Model model = load_robot(saved.robot);
   check_saved_design_model(saved, model, "design file '" + design_file + "'");
   return {std::move(model), saved.certificate};
+}
+
+const CLI::Validator& writable_file() {
+  static const CLI::Validator validator(
+      [](const std::string& path) -> std::string {
+        if (path.empty() || path == "-") return {};
+        namespace fs = std::filesystem;
+        std::error_code error;
+        if (fs::is_directory(path, error)) return "'" + path + "' is a directory, not a file";
+        const fs::path parent = fs::path(path).has_parent_path() ? fs::path(path).parent_path() : fs::path(".");
+        const std::string directory = "directory '" + parent.string() + "' of '" + path + "'";
+        if (!fs::is_directory(parent, error)) return directory + " does not exist";
+        if (access(parent.c_str(), W_OK) != 0) return directory + " is not writable";
+        return {};
+      },
+      "");  // no text of its own in --help: the option's type name says FILE
+  return validator;
 }
 
 int run_app(CLI::App& app, int argc, char** argv, const std::function<int()>& body) {

@@ -60,6 +60,10 @@ struct ValidationTarget {
 };
 ValidationTarget load_validation_target(const DesignArguments& design, const std::string& design_file);
 
+// An output file the app can write at the end: its directory exists and is writable, and it is not a directory
+// itself ("-" is stdout). Checked when the options are read, so that a typo in a path does not cost a whole design.
+const CLI::Validator& writable_file();
+
 // A finite number, or InputError "<name> = '<text>' is not a number".
 double parse_number(const std::string& name, const std::string& text);
 // "1,2.5,3" -> (1, 2.5, 3).
