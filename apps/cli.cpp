@@ -129,7 +129,6 @@ void add_certificate_options(CLI::App& app, DesignArguments& a) {
       ->type_name("SECONDS");
   app.add_option("--checkpoint", a.checkpoint,
                  "certified bounds: save the searches to FILE every 5 s, so that a killed job can --resume FILE")
-      ->check(writable_file())
       ->type_name("FILE");
   app.add_option("--resume", a.resume,
                  "certified bounds: continue the searches FILE holds (a checkpoint of the same robot and request), "
@@ -392,21 +391,20 @@ ValidationTarget load_validation_target(const DesignArguments& design, const std
   return {std::move(model), saved.certificate};
 }
 
-const CLI::Validator& writable_file() {
-  static const CLI::Validator validator(
-      [](const std::string& path) -> std::string {
-        if (path.empty() || path == "-") return {};
-        namespace fs = std::filesystem;
-        std::error_code error;
-        if (fs::is_directory(path, error)) return "'" + path + "' is a directory, not a file";
-        const fs::path parent = fs::path(path).has_parent_path() ? fs::path(path).parent_path() : fs::path(".");
-        const std::string directory = "directory '" + parent.string() + "' of '" + path + "'";
-        if (!fs::is_directory(parent, error)) return directory + " does not exist";
-        if (access(parent.c_str(), W_OK) != 0) return directory + " is not writable";
-        return {};
-      },
-      "");  // no text of its own in --help: the option's type name says FILE
-  return validator;
+void require_writable(const std::vector<std::pair<std::string, std::string>>& outputs) {
+  if (!distributed::output_rank()) return;
+  namespace fs = std::filesystem;
+  for (const auto& [option, path] : outputs) {
+    if (path.empty() || path == "-") continue;
+    const std::string named = option + " = '" + path + "'";
+    std::error_code error;
+    if (fs::is_directory(path, error)) throw InputError(named + " is a directory, not a file");
+    const fs::path parent = fs::path(path).has_parent_path() ? fs::path(path).parent_path() : fs::path(".");
+    if (!fs::is_directory(parent, error))
+      throw InputError(named + ": its directory '" + parent.string() + "' does not exist");
+    if (access(parent.c_str(), W_OK) != 0)
+      throw InputError(named + ": its directory '" + parent.string() + "' is not writable");
+  }
 }
 
 int run_app(CLI::App& app, int argc, char** argv, const std::function<int()>& body) {

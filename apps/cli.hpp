@@ -9,6 +9,8 @@
 
 #include <functional>
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace obsgain {
 
@@ -60,9 +62,10 @@ struct ValidationTarget {
 };
 ValidationTarget load_validation_target(const DesignArguments& design, const std::string& design_file);
 
-// An output file the app can write at the end: its directory exists and is writable, and it is not a directory
-// itself ("-" is stdout). Checked when the options are read, so that a typo in a path does not cost a whole design.
-const CLI::Validator& writable_file();
+// The output files an app writes at its end, {option, path}, checked before any work, so that a typo in a path does
+// not cost a whole design: each directory exists and is writable, and no path is a directory ("" and "-" are none and
+// stdout). Rank 0 writes the files, so rank 0 checks; its InputError ends an MPI job (run_app).
+void require_writable(const std::vector<std::pair<std::string, std::string>>& outputs);
 
 // A finite number, or InputError "<name> = '<text>' is not a number".
 double parse_number(const std::string& name, const std::string& text);

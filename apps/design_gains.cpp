@@ -22,22 +22,23 @@ int main(int argc, char** argv) {
   std::string json_path;
   auto* json = app.add_option("--json", json_path, "write JSON to stdout (no FILE, or -), or to FILE")
                    ->expected(0, 1)
-                   ->check(obsgain::writable_file())
                    ->type_name("[FILE]");
   std::string header_path, ros2_path, observer_path;
   app.add_option("--export-header", header_path,
                  "write the gains and the certificate as a C++ header of constexpr values (with the model and observer "
                  "for obsgain::runtime)")
-      ->check(obsgain::writable_file())
       ->type_name("FILE.hpp");
   app.add_option("--export-ros2", ros2_path, "write the gains and the certificate as a ROS 2 parameters file")
-      ->check(obsgain::writable_file())
       ->type_name("FILE.yaml");
   app.add_option("--export-observer", observer_path,
                  "write the model and the observer as obsgain::runtime reads them (read_exported_observer)")
-      ->check(obsgain::writable_file())
       ->type_name("FILE");
   return obsgain::run_app(app, argc, argv, [&] {
+    obsgain::require_writable({{"--json", json_path},
+                               {"--export-header", header_path},
+                               {"--export-ros2", ros2_path},
+                               {"--export-observer", observer_path},
+                               {"--checkpoint", arguments.checkpoint}});
     const obsgain::Model model = obsgain::load_robot(obsgain::to_robot_source(arguments));
     const obsgain::DesignRequest request = obsgain::to_design_request(arguments, model);
     const obsgain::DeployedDesign design = obsgain::design_observer(model, request.design, request.deployment);

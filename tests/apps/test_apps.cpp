@@ -424,18 +424,18 @@ TEST(MonteCarloApp, ExitOneWhenTheCertificateIsViolated) {
   EXPECT_NE(r.out.find("CERTIFICATE VIOLATED"), std::string::npos);
 }
 
-// An output the app cannot write is refused when the options are read, before any work: on a six-joint arm the
-// design would otherwise take two minutes and then fail. Nothing reaches stdout, so no design was printed.
+// An output the app cannot write is refused before any work: on a six-joint arm the design would otherwise take two
+// minutes and then fail. Nothing reaches stdout, so no design was printed.
 TEST(DesignGainsApp, AnOutputThatCannotBeWrittenIsRefusedBeforeTheDesign) {
   const std::string arm6 = "--robot " + std::string(OBSGAIN_EXAMPLES_DIR) + "/arm6.urdf --gamma 5 ";
-  expect_refused(arm6 + "--json /nonexistent/dir/design.json", "--json: directory '/nonexistent/dir'");
-  expect_refused(arm6 + "--export-header /nonexistent/gains.hpp", "--export-header: directory '/nonexistent'");
+  expect_refused(arm6 + "--json /nonexistent/dir/design.json", "--json = '/nonexistent/dir/design.json': its directory '/nonexistent/dir' does not exist");
+  expect_refused(arm6 + "--export-header /nonexistent/gains.hpp", "--export-header = '/nonexistent/gains.hpp'");
   expect_refused(arm6 + "--export-ros2 " + ::testing::TempDir(), "is a directory, not a file");
   expect_refused(arm6 + "--export-observer /nonexistent/observer.txt", "--export-observer");
-  expect_refused(arm6 + "--checkpoint /nonexistent/search.json", "--checkpoint: directory '/nonexistent'");
-  expect_refused("--theta 200 --csv /nonexistent/trials.csv", "--csv: directory '/nonexistent'", "monte-carlo");
+  expect_refused(arm6 + "--checkpoint /nonexistent/search.json", "--checkpoint = '/nonexistent/search.json'");
+  expect_refused("--theta 200 --csv /nonexistent/trials.csv", "--csv = '/nonexistent/trials.csv'", "monte-carlo");
   expect_refused("--theta 200 --trajectory /nonexistent/t.csv", "--trajectory", "monte-carlo");
-  expect_refused("--theta 200 --json /nonexistent/mc.json", "--json: directory '/nonexistent'", "monte-carlo");
+  expect_refused("--theta 200 --json /nonexistent/mc.json", "--json = '/nonexistent/mc.json'", "monte-carlo");
 }
 
 TEST(MonteCarloApp, RefusesBadInput) {
