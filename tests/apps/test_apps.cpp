@@ -426,9 +426,10 @@ TEST(MonteCarloApp, ExitOneWhenTheCertificateIsViolated) {
 
 // An output the app cannot write is refused before any work: on a six-joint arm the design would otherwise take two
 // minutes and then fail. Nothing reaches stdout, so no design was printed.
-TEST(DesignGainsApp, AnOutputThatCannotBeWrittenIsRefusedBeforeTheDesign) {
+TEST(OutputApps, AFileThatCannotBeWrittenIsRefusedBeforeAnyWork) {
   const std::string arm6 = "--robot " + std::string(OBSGAIN_EXAMPLES_DIR) + "/arm6.urdf --gamma 5 ";
-  expect_refused(arm6 + "--json /nonexistent/dir/design.json", "--json = '/nonexistent/dir/design.json': its directory '/nonexistent/dir' does not exist");
+  expect_refused(arm6 + "--json /nonexistent/dir/design.json",
+                 "--json = '/nonexistent/dir/design.json': its directory '/nonexistent/dir' does not exist");
   expect_refused(arm6 + "--export-header /nonexistent/gains.hpp", "--export-header = '/nonexistent/gains.hpp'");
   expect_refused(arm6 + "--export-ros2 " + ::testing::TempDir(), "is a directory, not a file");
   expect_refused(arm6 + "--export-observer /nonexistent/observer.txt", "--export-observer");
