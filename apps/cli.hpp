@@ -62,9 +62,10 @@ struct ValidationTarget {
 };
 ValidationTarget load_validation_target(const DesignArguments& design, const std::string& design_file);
 
-// The output files an app writes at its end, {option, path}, checked before any work, so that a typo in a path does
-// not cost a whole design: each directory exists and is writable, and no path is a directory ("" and "-" are none and
-// stdout). Rank 0 writes the files, so rank 0 checks; its InputError ends an MPI job (run_app).
+// The output files an app writes at its end, {option, path}, checked before any work (as the checkpoint is, opened
+// with the request), so that a typo in a path does not cost a whole design: each directory exists and is writable,
+// and no path is a directory ("" and "-" are none and stdout). Rank 0 writes the files, so rank 0 checks; its
+// InputError ends an MPI job (run_app).
 void require_writable(const std::vector<std::pair<std::string, std::string>>& outputs);
 
 // A finite number, or InputError "<name> = '<text>' is not a number".

@@ -37,8 +37,7 @@ int main(int argc, char** argv) {
     obsgain::require_writable({{"--json", json_path},
                                {"--export-header", header_path},
                                {"--export-ros2", ros2_path},
-                               {"--export-observer", observer_path},
-                               {"--checkpoint", arguments.checkpoint}});
+                               {"--export-observer", observer_path}});
     const obsgain::Model model = obsgain::load_robot(obsgain::to_robot_source(arguments));
     const obsgain::DesignRequest request = obsgain::to_design_request(arguments, model);
     const obsgain::DeployedDesign design = obsgain::design_observer(model, request.design, request.deployment);

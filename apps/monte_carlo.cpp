@@ -26,10 +26,7 @@ int main(int argc, char** argv) {
   app.add_option("--csv", csv_path, "write one row per trial to FILE")->type_name("FILE");
   app.add_option("--trajectory", trajectory_path, "write the time series of trial 0 to FILE")->type_name("FILE");
   return obsgain::run_app(app, argc, argv, [&] {
-    obsgain::require_writable({{"--json", json_path},
-                               {"--csv", csv_path},
-                               {"--trajectory", trajectory_path},
-                               {"--checkpoint", design.checkpoint}});
+    obsgain::require_writable({{"--json", json_path}, {"--csv", csv_path}, {"--trajectory", trajectory_path}});
     const obsgain::MonteCarloOptions options = obsgain::to_monte_carlo_options(arguments, design);
     const obsgain::ValidationTarget target = obsgain::load_validation_target(design, design_file);
     const obsgain::MonteCarloReport report = obsgain::run_monte_carlo(target.model, target.certificate, options);

@@ -433,7 +433,8 @@ TEST(OutputApps, AFileThatCannotBeWrittenIsRefusedBeforeAnyWork) {
   expect_refused(arm6 + "--export-header /nonexistent/gains.hpp", "--export-header = '/nonexistent/gains.hpp'");
   expect_refused(arm6 + "--export-ros2 " + ::testing::TempDir(), "is a directory, not a file");
   expect_refused(arm6 + "--export-observer /nonexistent/observer.txt", "--export-observer");
-  expect_refused(arm6 + "--checkpoint /nonexistent/search.json", "--checkpoint = '/nonexistent/search.json'");
+  // The checkpoint is opened with the request (in the library, the same message from Python).
+  expect_refused(arm6 + "--checkpoint /nonexistent/search.json", "cannot write checkpoint '/nonexistent/search.json'");
   expect_refused("--theta 200 --csv /nonexistent/trials.csv", "--csv = '/nonexistent/trials.csv'", "monte-carlo");
   expect_refused("--theta 200 --trajectory /nonexistent/t.csv", "--trajectory", "monte-carlo");
   expect_refused("--theta 200 --json /nonexistent/mc.json", "--json = '/nonexistent/mc.json'", "monte-carlo");
