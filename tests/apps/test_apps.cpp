@@ -432,12 +432,21 @@ TEST(OutputApps, AFileThatCannotBeWrittenIsRefusedBeforeAnyWork) {
                  "--json = '/nonexistent/dir/design.json': its directory '/nonexistent/dir' does not exist");
   expect_refused(arm6 + "--export-header /nonexistent/gains.hpp", "--export-header = '/nonexistent/gains.hpp'");
   expect_refused(arm6 + "--export-ros2 " + ::testing::TempDir(), "is a directory, not a file");
-  expect_refused(arm6 + "--export-observer /nonexistent/observer.txt", "--export-observer");
+  expect_refused(arm6 + "--export-observer /nonexistent/observer.txt",
+                 "--export-observer = '/nonexistent/observer.txt': its directory '/nonexistent' does not exist");
   // The checkpoint is opened with the request (in the library, the same message from Python).
   expect_refused(arm6 + "--checkpoint /nonexistent/search.json", "cannot write checkpoint '/nonexistent/search.json'");
   expect_refused("--theta 200 --csv /nonexistent/trials.csv", "--csv = '/nonexistent/trials.csv'", "monte-carlo");
-  expect_refused("--theta 200 --trajectory /nonexistent/t.csv", "--trajectory", "monte-carlo");
+  expect_refused("--theta 200 --trajectory /nonexistent/t.csv",
+                 "--trajectory = '/nonexistent/t.csv': its directory '/nonexistent' does not exist", "monte-carlo");
   expect_refused("--theta 200 --json /nonexistent/mc.json", "--json = '/nonexistent/mc.json'", "monte-carlo");
+  // verify-bounds' --out is a directory, created with its parents: the part of it that exists must be a directory.
+  const std::string file = (std::filesystem::path(::testing::TempDir()) / "obsgain_not_a_directory").string();
+  std::ofstream(file) << "x\n";
+  const std::string pendubot = "--robot pendubot --gamma 1.27 ";
+  expect_refused(pendubot + "--out " + file, "--out = '" + file + "' is not a directory", "verify-bounds");
+  expect_refused(pendubot + "--out " + file + "/report", "--out = '" + file + "/report': '" + file + "' is not a directory",
+                 "verify-bounds");
 }
 
 TEST(MonteCarloApp, RefusesBadInput) {
