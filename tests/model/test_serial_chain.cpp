@@ -115,6 +115,68 @@ INSTANTIATE_TEST_SUITE_P(ShippedArms, ChainAgainstKdl,
                            return file.substr(0, file.find('.'));
                          });
 
+// Random chains of 1-7 joints, as a reviewer would write them: revolute, continuous and prismatic joints with origins
+// turned by any roll, pitch and yaw, axes of any direction and length (URDF normalises them), and bodies whose inertial
+// frames are turned too (the inertia tensor is given in the turned frame) and whose centres lie off every axis.
+std::string random_chain_urdf(std::mt19937_64& rng, int joints) {
+  std::uniform_real_distribution<double> angle(-std::numbers::pi, std::numbers::pi), offset(-0.4, 0.4),
+      unit(0.0, 1.0);
+  const auto triple = [&](auto& distribution) {
+    return fmt::format("{:.17g} {:.17g} {:.17g}", distribution(rng), distribution(rng), distribution(rng));
+  };
+  std::string text = "<?xml version=\"1.0\"?>\n<robot name=\"random\">\n  <link name=\"l0\"/>\n";
+  const char* types[] = {"revolute", "continuous", "prismatic"};
+  for (int j = 1; j <= joints; ++j) {
+    const double m = 0.2 + 3.0 * unit(rng);
+    // A positive definite tensor that satisfies the triangle inequality: principal moments a + b >= c.
+    const double a = 0.01 + 0.05 * unit(rng), b = 0.01 + 0.05 * unit(rng), c = std::abs(a - b) + (a + b - std::abs(a - b)) * unit(rng);
+    text += fmt::format("  <link name=\"l{}\"><inertial><origin xyz=\"{}\" rpy=\"{}\"/><mass value=\"{:.17g}\"/>"
+                        "<inertia ixx=\"{:.17g}\" ixy=\"0\" ixz=\"0\" iyy=\"{:.17g}\" iyz=\"0\" izz=\"{:.17g}\"/>"
+                        "</inertial></link>\n",
+                        j, triple(offset), triple(angle), m, a, b, c);
+    const char* type = types[rng() % 3];
+    const std::string axis = fmt::format("{:.17g} {:.17g} {:.17g}", offset(rng), offset(rng), 0.05 + unit(rng));
+    text += fmt::format("  <joint name=\"j{}\" type=\"{}\"><parent link=\"l{}\"/><child link=\"l{}\"/>"
+                        "<origin xyz=\"{}\" rpy=\"{}\"/><axis xyz=\"{}\"/><limit lower=\"-1\" upper=\"1\" effort=\"1\" "
+                        "velocity=\"1\"/></joint>\n",
+                        j, type, j - 1, j, triple(offset), triple(angle), axis);
+  }
+  return text + "</robot>\n";
+}
+
+TEST(RandomChainsAgainstKdl, TurnedFramesAndPrismaticJointsAgreeTo1e12) {
+  std::mt19937_64 rng(2026);
+  std::uniform_real_distribution<double> position(-1.0, 1.0), speed(-3.0, 3.0);
+  for (int chain = 0; chain < 30; ++chain) {
+    const int n = 1 + chain % 7;
+    const std::string path = write_temp_file("random_chain.urdf", random_chain_urdf(rng, n));
+    const obsgain::Model model = obsgain::load_robot({path, "", "", {}, std::vector<double>(n, 0.0)});
+    KdlReference kdl(path, fmt::format("l{}", n));
+    ASSERT_EQ(model.dof(), n) << read_text(path);
+    ASSERT_EQ(static_cast<int>(kdl.chain.getNrOfJoints()), n);
+    for (int trial = 0; trial < 5; ++trial) {
+      KDL::JntArray q(n), v(n), out(n);
+      KDL::JntSpaceInertiaMatrix M_kdl(n);
+      for (int i = 0; i < n; ++i) {
+        q(i) = position(rng);
+        v(i) = speed(rng);
+      }
+      kdl.solver->JntToMass(q, M_kdl);
+      Eigen::MatrixXd M(n, n);
+      obsgain::mass_matrix(model, q.data, M);
+      ASSERT_LE((M - M_kdl.data).norm(), 1e-12 * M_kdl.data.norm()) << read_text(path);
+      kdl.solver->JntToCoriolis(q, v, out);
+      Eigen::VectorXd A(n);
+      obsgain::coriolis(model, q.data, v.data, A);
+      ASSERT_LE((A - out.data).norm(), 1e-12 * (out.data.norm() + M.norm())) << read_text(path);
+      kdl.solver->JntToGravity(q, out);
+      Eigen::VectorXd g(n);
+      obsgain::gravity(model, q.data, g);
+      ASSERT_LE((g - out.data).norm(), 1e-12 * (out.data.norm() + 1.0)) << read_text(path);
+    }
+  }
+}
+
 // A body in pieces — a link, a tool flange on a fixed joint, a fixed side branch (a sensor), and a gripper
 // whose two fingers are a prismatic joint and its <mimic> — must have the dynamics of the one body summed
 // by hand.
