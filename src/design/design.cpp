@@ -438,6 +438,18 @@ void name_a_wide_bracket(Design& d, const DesignOptions& options) {
       d.armature.isZero(0.0) ? "; real arms have rotor inertia: --armature" : ""));
 }
 
+// The selected norm-bound certificate on its constant's attained value (Design::AtAttained).
+void compare_with_attained(Design& d, const DesignOptions& options) {
+  const Design::UsedConstant used = d.used_constant();
+  const bool norm_bound = d.certificate == CertificateKind::tight || d.certificate == CertificateKind::scaled;
+  if (!d.bounds.certified || !used.bracket || !norm_bound || !(used.bracket->lower > 0.0)) return;
+  const CertifiedObserver& o = d.selected().observer;
+  Design::AtAttained a{used.name, used.bracket->lower};
+  a.theta = options.gamma ? tight_theta_star(d.alpha, d.beta, *options.gamma / (1.0 - d.rate_margin), a.L) : o.theta;
+  a.rate = options.gamma ? *options.gamma : tight_rate(o.k1, o.k2, a.L);
+  d.at_attained = a;
+}
+
 // Both certificates, side by side, and what the selected one proves.
 void certify(Design& d, const Model& model, const BoundReport& bounds, const DesignOptions& options) {
   const auto start = std::chrono::steady_clock::now();
@@ -462,6 +474,7 @@ void certify(Design& d, const Model& model, const BoundReport& bounds, const Des
                               : "numeric bounds: " + certification_unavailable(model) + ", so its suprema are estimates";
   }
   name_a_wide_bracket(d, options);
+  compare_with_attained(d, options);
   const CertificateSummary& s = d.selected();
   if (!s.observer.certified && s.rate > 0.0) {
     d.warnings.push_back(fmt::format("theta = {:.6g}: the {} certificate's rate {:.6g} is positive, but no certificate "

@@ -276,7 +276,10 @@ std::string bracket_gaps(const Design& d) {
   const std::string largest = fmt::format("largest relative gap {:.1e} ({})", gap(*worst->second), worst->first);
   const Design::UsedConstant used = d.used_constant();
   if (!used.bracket) return largest;
-  const std::string text = fmt::format("relative gap of {}, which the design uses, {:.1e}", used.name, gap(*used.bracket));
+  std::string text = fmt::format("relative gap of {}, which the design uses, {:.1e}", used.name, gap(*used.bracket));
+  if (d.at_attained && d.target_gamma)  // the proof's price in θ (Design::AtAttained)
+    text += fmt::format(" (on its attained value the same certificate takes θ = {}, this design {:.4g} times that)",
+                        number(d.at_attained->theta), d.selected().observer.theta / d.at_attained->theta);
   return used.bracket == worst->second ? text : text + "; " + largest;
 }
 

@@ -224,6 +224,11 @@ nlohmann::json to_json(const Design& d) {
   design["target_gamma"] = d.target_gamma ? nlohmann::json(*d.target_gamma) : nlohmann::json(nullptr);
   design["rate_margin"] = d.rate_margin;
   if (d.certificate == CertificateKind::scaled) design["scaling"] = to_json(d.bounds.scaling);
+  design["at_attained"] = d.at_attained ? nlohmann::json{{"constant", d.at_attained->constant},
+                                                         {"L", d.at_attained->L},
+                                                         {"theta", d.at_attained->theta},
+                                                         {"gamma", d.at_attained->rate}}
+                                        : nlohmann::json(nullptr);
   nlohmann::json j = {
       {"robot",
        {{"name", d.robot_name}, {"dof", d.dof}, {"source", d.robot_source.robot},
@@ -392,6 +397,17 @@ std::string format_gains(const Design& d) {
   out << fmt::format("  {}: ||e(t)|| <= {:.6g} ||e(0)|| exp(-{:.6g} t) while |v_i(t)| <= V_i\n",
                      d.proven() ? "certified" : "estimate (numeric bounds, not proven)", o.k, o.gamma);
   if (!d.proven()) out << "  not proven: " << d.not_proven_reason << "\n";
+  if (const auto& a = d.at_attained; a && d.target_gamma && o.theta > a->theta * (1.0 + 1e-4))
+    out << fmt::format("  the proof's price: on {}'s attained value {:.7g} the same certificate takes theta = {:.7g}; this "
+                       "design's is {:.4g} times it (a larger --bound-budget lowers that)\n",
+                       a->constant, a->L, a->theta, o.theta / a->theta);
+  else if (a && d.target_gamma)
+    out << fmt::format("  the proof's price: none (on {}'s attained value {:.7g} theta is the same within 1e-4)\n",
+                       a->constant, a->L);
+  else if (a)
+    out << fmt::format("  the proof's price: on {}'s attained value {:.7g} the same certificate proves {:.7g} 1/s, this "
+                       "design {:.7g} 1/s (a larger --bound-budget closes the distance)\n",
+                       a->constant, a->L, a->rate, d.selected().rate);
   return out.str();
 }
 

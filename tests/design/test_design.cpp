@@ -145,6 +145,52 @@ TEST(Design, ScaledCertificateIsTheDefaultWhereItIsBetterAndHoldsForTheRealPertu
   EXPECT_EQ(obsgain::design_gains(model, o).selected().observer.theta, d.tight.observer.theta);
 }
 
+// The proof's price (Design::AtAttained): the selected certificate on its constant's attained value. Cross-checked
+// against the numeric design, which reaches the same θ through the optimisers' estimate of that constant (the
+// attained value is at least the estimate, so its θ is at least the numeric one): on the Pendubot, whose brackets
+// close, the three θ agree within 1e-6; on arm3 with a budget of 0.05 s the bracket is open (its upper end more than
+// 10 % above), the design's θ is above the price's floor, and the floor is the numeric design's.
+TEST(Design, TheProofsPriceIsTheCertificateOnTheAttainedValue) {
+  obsgain::DesignOptions o;
+  o.gamma = 1.27;
+  const obsgain::Model pendubot = obsgain::pendubot();
+  const obsgain::Design d = obsgain::design_gains(pendubot, o);
+  ASSERT_TRUE(d.at_attained.has_value());
+  EXPECT_STREQ(d.at_attained->constant, "L_T");
+  EXPECT_EQ(d.at_attained->L, d.bounds.L_scaled_bracket.lower);
+  o.bound_method = obsgain::BoundMethod::numeric;
+  const obsgain::Design numeric = obsgain::design_gains(pendubot, o);
+  EXPECT_FALSE(numeric.at_attained.has_value());  // estimates only: no proof, no price
+  EXPECT_NEAR(d.at_attained->theta, numeric.selected().observer.theta, 1e-6 * numeric.selected().observer.theta);
+  EXPECT_NEAR(d.at_attained->theta, d.selected().observer.theta, 1e-6 * d.selected().observer.theta);
+  EXPECT_EQ(obsgain::to_json(d)["design"]["at_attained"]["theta"], d.at_attained->theta);
+
+  // A budget of 0.2 ms leaves L_joint's bracket open (its upper end 288.8 against 43.35 attained).
+  obsgain::DesignOptions wide;
+  wide.gamma = 1.27;
+  wide.certificate = obsgain::CertificateKind::tight;
+  wide.certified_bounds.budget_seconds = 2e-4;
+  const obsgain::Design open = obsgain::design_gains(pendubot, wide);
+  ASSERT_TRUE(open.at_attained.has_value());
+  EXPECT_STREQ(open.at_attained->constant, "L_joint");
+  ASSERT_GT(open.bounds.L_joint_bracket.upper, 2.0 * open.at_attained->L);
+  EXPECT_GT(open.selected().observer.theta, 2.0 * open.at_attained->theta);
+  EXPECT_EQ(open.at_attained->theta, obsgain::tight_theta_star(open.alpha, open.beta, 1.27 / (1.0 - open.rate_margin),
+                                                               open.at_attained->L));
+  wide.bound_method = obsgain::BoundMethod::numeric;
+  const double estimated = obsgain::design_gains(pendubot, wide).selected().observer.theta;
+  EXPECT_GE(open.at_attained->theta, estimated * (1.0 - 1e-12));
+  EXPECT_LE(open.at_attained->theta, estimated * (1.0 + 1e-6));
+  // For a given θ, the rate on the attained value: above the design's.
+  wide.bound_method = obsgain::BoundMethod::certified;
+  wide.gamma.reset();
+  wide.theta = 70.0;
+  const obsgain::Design at_theta = obsgain::design_gains(pendubot, wide);
+  ASSERT_TRUE(at_theta.at_attained.has_value());
+  EXPECT_GT(at_theta.at_attained->rate, at_theta.selected().rate);
+  EXPECT_EQ(at_theta.at_attained->rate, obsgain::tight_rate(70.0, 4900.0, at_theta.at_attained->L));
+}
+
 TEST(Design, ScaledCertificateRestsOnTheComputedLJointOnly) {
   obsgain::DesignOptions o;
   o.bound_method = obsgain::BoundMethod::numeric;  // bounds are not under test here

@@ -120,6 +120,15 @@ struct Design {
   std::optional<CertificateSummary> scaled;     // when the bounds kept a similarity scaling (bounds.scaling) for L_joint
   std::optional<CertificateSummary> polytopic;  // --certificate polytopic: its result, even when it fell back
   std::optional<PolytopeSummary> polytope;
+  // The selected norm-bound certificate (tight or scaled) once more, at the same α and β, on the value its constant
+  // attains (the bracket's lower end) in place of the proven upper end: what a proof without a gap would give, θ for a
+  // target (with the same rate margin) and the rate for a given θ. No proof of that constant does better; the distance
+  // to the design is what the proof costs, and a larger --bound-budget narrows it. Certified bounds only.
+  struct AtAttained {
+    const char* constant = nullptr;  // "L_joint" or "L_T"
+    double L = 0.0, theta = 0.0, rate = 0.0;
+  };
+  std::optional<AtAttained> at_attained;
   std::vector<std::string> notes;     // what loading the model (chain, lumped bodies, armature) and the search decided
   std::vector<std::string> warnings;
   // The certificate is a proof only if every bound it uses is proven: certified bounds, or an L given by the
