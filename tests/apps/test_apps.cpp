@@ -505,10 +505,16 @@ TEST(VerifyBoundsApp, TheVerdictGivesTheGapOfTheConstantTheDesignUses) {
                                             "/two_link_arm.json --gamma 5 --bound-budget 0.0028 --trials 4 --quiet --out " + out);
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const std::string html = read_text(out + "/report.html");
-  EXPECT_NE(html.find("relative gap of L_T, which the design uses, 2.0e-02; largest relative gap 1.0e+00 (M0)."),
+  // With the proof's price: the same certificate on L_T's attained value (Design::AtAttained).
+  EXPECT_NE(html.find("relative gap of L_T, which the design uses, 2.0e-02 (on its attained value the same certificate "
+                      "takes θ = 20.35907, this design 1.011 times that); largest relative gap 1.0e+00 (M0)."),
             std::string::npos);
   EXPECT_EQ(html.find("times the value attained"), std::string::npos);
-  EXPECT_EQ(read_json(out + "/report.json")["certificate"], "scaled");
+  const nlohmann::json report = read_json(out + "/report.json");
+  EXPECT_EQ(report["certificate"], "scaled");
+  EXPECT_EQ(report["design"]["at_attained"]["constant"], "L_T");
+  EXPECT_EQ(report["design"]["at_attained"]["L"], report["certified"]["L_scaled"]["lower"]);
+  EXPECT_NEAR(report["design"]["theta"].get<double>() / report["design"]["at_attained"]["theta"].get<double>(), 1.011, 5e-4);
 }
 
 // Also: with --optimize-shape the report says how α was chosen, as the table does.
