@@ -174,8 +174,8 @@ void add_design_options(CLI::App& app, DesignArguments& a) {
   add_certificate_options(app, a);
   app.add_flag("--quiet", a.quiet, "no progress lines on stderr");
   app.add_option("--threads", a.threads,
-                 "worker threads for the bound search and the Monte Carlo trials (0: all cores); the results do not "
-                 "depend on it")
+                 "worker threads for the bound search and the Monte Carlo trials, processes for the numeric search's "
+                 "Ipopt polishes (0: all cores); the results do not depend on it")
       ->capture_default_str()
       ->type_name("COUNT");
   add_deployment_options(app, a);

@@ -3,12 +3,15 @@
 #include "obsgain/bounds/perturbation_polytope.hpp"
 #include "obsgain/model/dynamics.hpp"
 #include "obsgain/numerics/optimize.hpp"
+#include "obsgain/numerics/parallel.hpp"
+#include "obsgain/numerics/processes.hpp"
 #include "obsgain/numerics/sdp.hpp"
 #include "obsgain/numerics/spectrum.hpp"
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <functional>
 #include <numbers>
 #include <random>
@@ -115,6 +118,54 @@ BoundMaximum constant_maximum(const Model& model, const SearchSpace& space, cons
   return result;
 }
 
+// An Ipopt polish's result as bytes, its doubles bit for bit, to come back from a child process (map_in_processes).
+std::string to_bytes(const OptimumPoint& p) {
+  std::string bytes(sizeof(double) + sizeof(int) + sizeof(double) * static_cast<std::size_t>(p.x.size()), '\0');
+  std::memcpy(bytes.data(), &p.value, sizeof(double));
+  std::memcpy(bytes.data() + sizeof(double), &p.evaluations, sizeof(int));
+  std::memcpy(bytes.data() + sizeof(double) + sizeof(int), p.x.data(), sizeof(double) * static_cast<std::size_t>(p.x.size()));
+  return bytes;
+}
+
+OptimumPoint from_bytes(const std::string& bytes) {
+  OptimumPoint p;
+  std::memcpy(&p.value, bytes.data(), sizeof(double));
+  std::memcpy(&p.evaluations, bytes.data() + sizeof(double), sizeof(int));
+  p.x.resize(static_cast<Eigen::Index>((bytes.size() - sizeof(double) - sizeof(int)) / sizeof(double)));
+  std::memcpy(p.x.data(), bytes.data() + sizeof(double) + sizeof(int), sizeof(double) * static_cast<std::size_t>(p.x.size()));
+  return p;
+}
+
+// Ipopt from each start, on the choice (velocity vertex, saturation pattern) that is largest there. The polishes are
+// independent; Ipopt's linear solver is not thread-safe, so on several cores they run in child processes
+// (numerics/processes.hpp), with the same results, in the starts' order, as one after the other.
+std::vector<OptimumPoint> polish_each(const Model& model, const SearchSpace& space, const BoundProblem& problem,
+                                      const std::vector<std::pair<double, Eigen::VectorXd>>& starts, int threads) {
+  const auto d = static_cast<int>(space.joints.size());
+  const auto polish = [&](int i) {
+    const Eigen::VectorXd& x0 = starts[static_cast<std::size_t>(i)].second;
+    int choice = 0;
+    problem.all_choices(full_configuration(space, x0), choice);
+    // Search a continuous joint one period around the start, so that a maximiser near ±π is interior.
+    Eigen::VectorXd lower = space.lower, upper = space.upper;
+    for (int k = 0; k < d; ++k) {
+      if (model.joints[space.joints[k]].continuous) {
+        lower(k) = x0(k) - std::numbers::pi;
+        upper(k) = x0(k) + std::numbers::pi;
+      }
+    }
+    const Objective smooth = [&](const Eigen::VectorXd& x) {
+      return problem.one_choice(full_configuration(space, x), choice);
+    };
+    return to_bytes(maximize_local(smooth, x0, lower, upper));
+  };
+  const int count = static_cast<int>(starts.size());
+  const std::vector<std::string> bytes = map_in_processes(count, resolve_threads(threads), polish);
+  std::vector<OptimumPoint> polished;
+  for (const std::string& b : bytes) polished.push_back(from_bytes(b));
+  return polished;
+}
+
 BoundMaximum search(const Model& model, const BoundProblem& problem, const BoundOptions& options) {
   const SearchSpace space = search_space(model);
   const auto d = static_cast<int>(space.joints.size());
@@ -147,29 +198,16 @@ BoundMaximum search(const Model& model, const BoundProblem& problem, const Bound
     starts.push_back(sample);
   }
 
+  const std::vector<OptimumPoint> polished = polish_each(model, space, problem, starts, options.threads);
   result.polish_value = -std::numeric_limits<double>::infinity();
   Eigen::VectorXd best_x = global.x;
-  for (const auto& [value, x0] : starts) {
-    int choice = 0;
-    problem.all_choices(full_configuration(space, x0), choice);
-    // Search a continuous joint one period around the start, so that a maximiser near ±π is interior.
-    Eigen::VectorXd lower = space.lower, upper = space.upper;
-    for (int k = 0; k < d; ++k) {
-      if (model.joints[space.joints[k]].continuous) {
-        lower(k) = x0(k) - std::numbers::pi;
-        upper(k) = x0(k) + std::numbers::pi;
-      }
-    }
-    const Objective smooth = [&](const Eigen::VectorXd& x) {
-      return problem.one_choice(full_configuration(space, x), choice);
-    };
-    const OptimumPoint polished = maximize_local(smooth, x0, lower, upper);
-    result.polish_evaluations += polished.evaluations;
+  for (const OptimumPoint& p : polished) {
+    result.polish_evaluations += p.evaluations;
     int final_choice = 0;
-    const double confirmed = problem.all_choices(full_configuration(space, polished.x), final_choice);
+    const double confirmed = problem.all_choices(full_configuration(space, p.x), final_choice);
     if (confirmed > result.polish_value) {
       result.polish_value = confirmed;
-      if (confirmed >= result.global_value) best_x = polished.x;
+      if (confirmed >= result.global_value) best_x = p.x;
     }
   }
   result.value = std::max(result.global_value, result.polish_value);

@@ -523,6 +523,7 @@ BoundReport design_bounds(const Model& model, const Eigen::VectorXd& V, const De
   // A similarity scaling serves the scaled certificate only (the polytopic one falls back to it): it is not searched
   // when another certificate is named, or when the certificate rests on L_paper or the user's L.
   BoundOptions bound_options = options.bounds;
+  bound_options.threads = options.certified_bounds.threads;
   const bool scalable_request = !options.L_override && options.lipschitz == LipschitzKind::joint &&
                                 options.certificate.value_or(CertificateKind::scaled) != CertificateKind::tight &&
                                 options.certificate != CertificateKind::paper;

@@ -1,5 +1,6 @@
 #include "obsgain/bounds/bounds.hpp"
 #include "obsgain/model/planar_2r.hpp"
+#include "obsgain/parsers/robots.hpp"
 #include "obsgain/numerics/spectrum.hpp"
 
 #include <gtest/gtest.h>
@@ -98,6 +99,25 @@ namespace {
 // norm is |u| |v|), and above it by the eigenvalue pad and the Gram matrix's rounding only, for square, tall and wide
 // matrices. On entries of 1e-162, whose squares underflow to 0, the bound rests on the underflow term alone and still
 // holds; the zero matrix's is 0.
+// The numeric search polishes its starts in child processes on several cores (numerics/processes.hpp): the same
+// numbers, bit for bit, as one after the other, on arm3 (whose L_T rounds search a similarity too).
+TEST(Bounds, TheNumericSearchIsTheSameOnOneCoreAndOnTwo) {
+  const obsgain::Model arm3 = obsgain::load_robot({std::string(OBSGAIN_EXAMPLES_DIR) + "/arm3.urdf"});
+  obsgain::BoundOptions one, two;
+  one.threads = 1;
+  two.threads = 2;
+  const obsgain::BoundReport a = obsgain::compute_bounds(arm3, arm3.velocity_bounds, one);
+  const obsgain::BoundReport b = obsgain::compute_bounds(arm3, arm3.velocity_bounds, two);
+  for (const auto& [x, y] : {std::pair{&a.M0, &b.M0}, {&a.B, &b.B}, {&a.L_joint, &b.L_joint}, {&a.L_scaled, &b.L_scaled}}) {
+    EXPECT_EQ(x->value, y->value);
+    EXPECT_EQ(x->polish_value, y->polish_value);
+    EXPECT_EQ(x->polish_evaluations, y->polish_evaluations);
+    EXPECT_EQ(x->q, y->q);
+  }
+  ASSERT_TRUE(a.scaled());
+  EXPECT_EQ(a.scaling, b.scaling);
+}
+
 TEST(Spectrum, SpectralNormUpperHoldsAndIsTight) {
   std::srand(7);
   const auto check = [](const Eigen::MatrixXd& B, double sigma, double slack) {

@@ -24,6 +24,7 @@ struct BoundOptions {
   // rose further, and each start costs a local solve (docs/theory.md, "The constants").
   int polish_starts = 8;
   int samples_per_dimension = 64;               // sample points that seed the extra polish starts
+  int threads = 0;  // the polishes run at once on this many cores (0: all), each in a process; the same results
   // Similarity scaling: the T that minimises L_T over the configurations the searches found worst is kept when its
   // estimate is at least this fraction below L_joint's (its certified search then races L_joint's for the budget).
   // Up to scaling_max_dof joints (the certified search's limit: beyond it every round of the search is long and
