@@ -118,12 +118,16 @@ BoundMaximum constant_maximum(const Model& model, const SearchSpace& space, cons
   return result;
 }
 
-// An Ipopt polish's result as bytes, its doubles bit for bit, to come back from a child process (map_in_processes).
+// An Ipopt polish's result as bytes, its doubles bit for bit, to come back from a child process (map_in_processes):
+// the value, the evaluations, then x.
+constexpr std::size_t kPolishHead = sizeof(double) + sizeof(int);
+
 std::string to_bytes(const OptimumPoint& p) {
-  std::string bytes(sizeof(double) + sizeof(int) + sizeof(double) * static_cast<std::size_t>(p.x.size()), '\0');
+  const std::size_t x_size = sizeof(double) * static_cast<std::size_t>(p.x.size());
+  std::string bytes(kPolishHead + x_size, '\0');
   std::memcpy(bytes.data(), &p.value, sizeof(double));
   std::memcpy(bytes.data() + sizeof(double), &p.evaluations, sizeof(int));
-  std::memcpy(bytes.data() + sizeof(double) + sizeof(int), p.x.data(), sizeof(double) * static_cast<std::size_t>(p.x.size()));
+  std::memcpy(bytes.data() + kPolishHead, p.x.data(), x_size);
   return bytes;
 }
 
@@ -131,8 +135,8 @@ OptimumPoint from_bytes(const std::string& bytes) {
   OptimumPoint p;
   std::memcpy(&p.value, bytes.data(), sizeof(double));
   std::memcpy(&p.evaluations, bytes.data() + sizeof(double), sizeof(int));
-  p.x.resize(static_cast<Eigen::Index>((bytes.size() - sizeof(double) - sizeof(int)) / sizeof(double)));
-  std::memcpy(p.x.data(), bytes.data() + sizeof(double) + sizeof(int), sizeof(double) * static_cast<std::size_t>(p.x.size()));
+  p.x.resize(static_cast<Eigen::Index>((bytes.size() - kPolishHead) / sizeof(double)));
+  std::memcpy(p.x.data(), bytes.data() + kPolishHead, bytes.size() - kPolishHead);
   return p;
 }
 

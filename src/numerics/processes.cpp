@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <cstddef>
 #include <optional>
 
 namespace obsgain {
@@ -65,9 +66,11 @@ bool collect(Child& child, std::vector<std::optional<std::string>>& results) {
   if (n < 0 && errno == EINTR) return false;
   close(child.fd);
   int status = 0;
-  while (waitpid(child.pid, &status, 0) < 0 && errno == EINTR) {
+  pid_t reaped = -1;
+  while ((reaped = waitpid(child.pid, &status, 0)) < 0 && errno == EINTR) {
   }
-  if (n == 0 && WIFEXITED(status) && WEXITSTATUS(status) == 0)
+  // A status not known (SIGCHLD ignored by the host program reaps children itself) is no result either.
+  if (n == 0 && reaped == child.pid && WIFEXITED(status) && WEXITSTATUS(status) == 0)
     results[static_cast<std::size_t>(child.index)] = std::move(child.bytes);
   return true;
 }
@@ -86,7 +89,8 @@ std::vector<std::string> map_in_processes(int count, int workers, const std::fun
       for (const Child& c : running) ready.push_back({c.fd, POLLIN, 0});
       if (poll(ready.data(), ready.size(), -1) < 0 && errno != EINTR) break;  // then the rest runs here
       for (std::size_t k = running.size(); k-- > 0;)
-        if (ready[k].revents != 0 && collect(running[k], results)) running.erase(running.begin() + static_cast<long>(k));
+        if (ready[k].revents != 0 && collect(running[k], results))
+          running.erase(running.begin() + static_cast<std::ptrdiff_t>(k));
     }
     for (Child& c : running) {  // only after a failed poll: no result from these
       close(c.fd);

@@ -398,15 +398,15 @@ std::string format_gains(const Design& d) {
                      d.proven() ? "certified" : "estimate (numeric bounds, not proven)", o.k, o.gamma);
   if (!d.proven()) out << "  not proven: " << d.not_proven_reason << "\n";
   if (const auto& a = d.at_attained; a && d.target_gamma && o.theta > a->theta * (1.0 + 1e-4))
-    out << fmt::format("  the proof's price: on {}'s attained value {:.7g} the same certificate takes theta = {:.7g}; this "
-                       "design's is {:.4g} times it (a larger --bound-budget lowers that)\n",
+    out << fmt::format("  the proof's price: on {}'s attained value {:.7g} the same certificate takes theta = {:.7g}; "
+                       "this design's is {:.4g} times it (a larger --bound-budget lowers that)\n",
                        a->constant, a->L, a->theta, o.theta / a->theta);
   else if (a && d.target_gamma)
     out << fmt::format("  the proof's price: none (on {}'s attained value {:.7g} theta is the same within 1e-4)\n",
                        a->constant, a->L);
   else if (a)
-    out << fmt::format("  the proof's price: on {}'s attained value {:.7g} the same certificate proves {:.7g} 1/s, this "
-                       "design {:.7g} 1/s (a larger --bound-budget closes the distance)\n",
+    out << fmt::format("  the proof's price: on {}'s attained value {:.7g} the same certificate proves {:.7g} 1/s, "
+                       "this design {:.7g} 1/s (a larger --bound-budget closes the distance)\n",
                        a->constant, a->L, a->rate, d.selected().rate);
   return out.str();
 }

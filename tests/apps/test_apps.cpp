@@ -445,8 +445,8 @@ TEST(OutputApps, AFileThatCannotBeWrittenIsRefusedBeforeAnyWork) {
   std::ofstream(file) << "x\n";
   const std::string pendubot = "--robot pendubot --gamma 1.27 ";
   expect_refused(pendubot + "--out " + file, "--out = '" + file + "' is not a directory", "verify-bounds");
-  expect_refused(pendubot + "--out " + file + "/report", "--out = '" + file + "/report': '" + file + "' is not a directory",
-                 "verify-bounds");
+  expect_refused(pendubot + "--out " + file + "/report",
+                 "--out = '" + file + "/report': '" + file + "' is not a directory", "verify-bounds");
 }
 
 TEST(MonteCarloApp, RefusesBadInput) {
@@ -514,7 +514,8 @@ TEST(VerifyBoundsApp, TheVerdictGivesTheGapOfTheConstantTheDesignUses) {
   EXPECT_EQ(report["certificate"], "scaled");
   EXPECT_EQ(report["design"]["at_attained"]["constant"], "L_T");
   EXPECT_EQ(report["design"]["at_attained"]["L"], report["certified"]["L_scaled"]["lower"]);
-  EXPECT_NEAR(report["design"]["theta"].get<double>() / report["design"]["at_attained"]["theta"].get<double>(), 1.011, 5e-4);
+  const double theta = report["design"]["theta"], floor = report["design"]["at_attained"]["theta"];
+  EXPECT_NEAR(theta / floor, 1.011, 5e-4);
 }
 
 // Also: with --optimize-shape the report says how α was chosen, as the table does.

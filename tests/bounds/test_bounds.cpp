@@ -108,7 +108,9 @@ TEST(Bounds, TheNumericSearchIsTheSameOnOneCoreAndOnTwo) {
   two.threads = 2;
   const obsgain::BoundReport a = obsgain::compute_bounds(arm3, arm3.velocity_bounds, one);
   const obsgain::BoundReport b = obsgain::compute_bounds(arm3, arm3.velocity_bounds, two);
-  for (const auto& [x, y] : {std::pair{&a.M0, &b.M0}, {&a.B, &b.B}, {&a.L_joint, &b.L_joint}, {&a.L_scaled, &b.L_scaled}}) {
+  const std::pair<const obsgain::BoundMaximum*, const obsgain::BoundMaximum*> pairs[] = {
+      {&a.M0, &b.M0}, {&a.B, &b.B}, {&a.L_joint, &b.L_joint}, {&a.L_scaled, &b.L_scaled}};
+  for (const auto& [x, y] : pairs) {
     EXPECT_EQ(x->value, y->value);
     EXPECT_EQ(x->polish_value, y->polish_value);
     EXPECT_EQ(x->polish_evaluations, y->polish_evaluations);

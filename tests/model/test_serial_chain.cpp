@@ -129,7 +129,8 @@ std::string random_chain_urdf(std::mt19937_64& rng, int joints) {
   for (int j = 1; j <= joints; ++j) {
     const double m = 0.2 + 3.0 * unit(rng);
     // A positive definite tensor that satisfies the triangle inequality: principal moments a + b >= c.
-    const double a = 0.01 + 0.05 * unit(rng), b = 0.01 + 0.05 * unit(rng), c = std::abs(a - b) + (a + b - std::abs(a - b)) * unit(rng);
+    const double a = 0.01 + 0.05 * unit(rng), b = 0.01 + 0.05 * unit(rng);
+    const double c = std::abs(a - b) + (a + b - std::abs(a - b)) * unit(rng);
     text += fmt::format("  <link name=\"l{}\"><inertial><origin xyz=\"{}\" rpy=\"{}\"/><mass value=\"{:.17g}\"/>"
                         "<inertia ixx=\"{:.17g}\" ixy=\"0\" ixz=\"0\" iyy=\"{:.17g}\" iyz=\"0\" izz=\"{:.17g}\"/>"
                         "</inertial></link>\n",
