@@ -1,7 +1,7 @@
 #include "obsgain/bounds/bounds.hpp"
 #include "obsgain/model/planar_2r.hpp"
-#include "obsgain/parsers/robots.hpp"
 #include "obsgain/numerics/spectrum.hpp"
+#include "obsgain/parsers/robots.hpp"
 
 #include <gtest/gtest.h>
 
@@ -93,12 +93,6 @@ TEST(Bounds, FrictionEntersBothLipschitzConstants) {
 
 namespace {
 
-// A rotated nilpotent Φ = a u vᵀ (u ⊥ v): ||T Φ T⁻¹|| = a ||T u|| ||T⁻ᵀ v|| >= a / cond(T), attained by T = D Rᵀ. No
-// diagonal T helps here (its minimum is a, at T = I); the best full T with cond(T) <= κ reaches a / κ exactly.
-// ||B||₂ proven from the smaller Gram matrix: never below the largest singular value (Jacobi SVD; a rank-one u vᵀ, whose
-// norm is |u| |v|), and above it by the eigenvalue pad and the Gram matrix's rounding only, for square, tall and wide
-// matrices. On entries of 1e-162, whose squares underflow to 0, the bound rests on the underflow term alone and still
-// holds; the zero matrix's is 0.
 // The numeric search polishes its starts in child processes on several cores (numerics/processes.hpp): the same
 // numbers, bit for bit, as one after the other, on arm3 (whose L_T rounds search a similarity too).
 TEST(Bounds, TheNumericSearchIsTheSameOnOneCoreAndOnTwo) {
@@ -120,6 +114,10 @@ TEST(Bounds, TheNumericSearchIsTheSameOnOneCoreAndOnTwo) {
   EXPECT_EQ(a.scaling, b.scaling);
 }
 
+// ||B||₂ proven from the smaller Gram matrix: never below the largest singular value (Jacobi SVD; a rank-one u vᵀ, whose
+// norm is |u| |v|), and above it by the eigenvalue pad and the Gram matrix's rounding only, for square, tall and wide
+// matrices. On entries of 1e-162, whose squares underflow to 0, the bound rests on the underflow term alone and still
+// holds; the zero matrix's is 0.
 TEST(Spectrum, SpectralNormUpperHoldsAndIsTight) {
   std::srand(7);
   const auto check = [](const Eigen::MatrixXd& B, double sigma, double slack) {
@@ -212,6 +210,8 @@ TEST(SimilarityScaling, TheSlackTakesTheSmallestConditionNumberWhereTheMinimumIs
   EXPECT_NEAR(t.maxCoeff() / t.minCoeff(), 2.0 / (1.0 + slack), 1e-3);
 }
 
+// A rotated nilpotent Φ = a u vᵀ (u ⊥ v): ||T Φ T⁻¹|| = a ||T u|| ||T⁻ᵀ v|| >= a / cond(T), attained by T = D Rᵀ. No
+// diagonal T helps here (its minimum is a, at T = I); the best full T with cond(T) <= κ reaches a / κ exactly.
 TEST(SimilarityScaling, ReachesTheAnalyticMinimumWhereNoDiagonalScalingHelps) {
   const double a = 4.0, kappa = 30.0;
   const Eigen::Vector2d u(std::sqrt(0.5), std::sqrt(0.5)), v(-std::sqrt(0.5), std::sqrt(0.5));

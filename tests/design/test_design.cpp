@@ -148,8 +148,8 @@ TEST(Design, ScaledCertificateIsTheDefaultWhereItIsBetterAndHoldsForTheRealPertu
 // The proof's price (Design::AtAttained): the selected certificate on its constant's attained value. Cross-checked
 // against the numeric design, which reaches the same θ through the optimisers' estimate of that constant (the
 // attained value is at least the estimate, so its θ is at least the numeric one): on the Pendubot, whose brackets
-// close, the three θ agree within 1e-6; on arm3 with a budget of 0.05 s the bracket is open (its upper end more than
-// 10 % above), the design's θ is above the price's floor, and the floor is the numeric design's.
+// close, the three θ agree within 1e-6; with a budget too small to close them, the design's θ is above the price's
+// floor, and the floor is the numeric design's.
 TEST(Design, TheProofsPriceIsTheCertificateOnTheAttainedValue) {
   obsgain::DesignOptions o;
   o.gamma = 1.27;
