@@ -47,6 +47,26 @@ struct KdlReference {
   }
 };
 
+// M, the Coriolis forces and gravity at (q, v) against KDL's, to 1e-12 of their size; `context` names the case.
+void expect_agrees_with_kdl(const obsgain::Model& model, KdlReference& kdl, const KDL::JntArray& q,
+                            const KDL::JntArray& v, const std::string& context) {
+  const int n = model.dof();
+  KDL::JntArray out(n);
+  KDL::JntSpaceInertiaMatrix M_kdl(n);
+  kdl.solver->JntToMass(q, M_kdl);
+  Eigen::MatrixXd M(n, n);
+  obsgain::mass_matrix(model, q.data, M);
+  EXPECT_LE((M - M_kdl.data).norm(), 1e-12 * M_kdl.data.norm()) << context;
+  kdl.solver->JntToCoriolis(q, v, out);
+  Eigen::VectorXd A(n);
+  obsgain::coriolis(model, q.data, v.data, A);
+  EXPECT_LE((A - out.data).norm(), 1e-12 * (out.data.norm() + M.norm())) << context;
+  kdl.solver->JntToGravity(q, out);
+  Eigen::VectorXd g(n);
+  obsgain::gravity(model, q.data, g);
+  EXPECT_LE((g - out.data).norm(), 1e-12 * (out.data.norm() + 1.0)) << context;
+}
+
 // A shipped file, KDL's tip, and where to cut the file's text (empty: nowhere): KDL's chain has no side branches,
 // so an arm whose hand carries fingers is compared without them (their lumping: UrdfQuirks below).
 struct KdlCase {
@@ -83,24 +103,12 @@ TEST_P(ChainAgainstKdl, MassCoriolisAndGravityAgreeTo1e12) {
   std::mt19937_64 rng(17);
   std::uniform_real_distribution<double> angle(-std::numbers::pi, std::numbers::pi), speed(-3.0, 3.0);
   for (int trial = 0; trial < 20; ++trial) {
-    KDL::JntArray q(n), v(n), out(n);
-    KDL::JntSpaceInertiaMatrix M_kdl(n);
+    KDL::JntArray q(n), v(n);
     for (int i = 0; i < n; ++i) {
       q(i) = angle(rng);
       v(i) = speed(rng);
     }
-    kdl.solver->JntToMass(q, M_kdl);
-    Eigen::MatrixXd M(n, n);
-    obsgain::mass_matrix(model, q.data, M);
-    EXPECT_LE((M - M_kdl.data).norm(), 1e-12 * M_kdl.data.norm()) << file;
-    kdl.solver->JntToCoriolis(q, v, out);
-    Eigen::VectorXd A(n);
-    obsgain::coriolis(model, q.data, v.data, A);
-    EXPECT_LE((A - out.data).norm(), 1e-12 * (out.data.norm() + M.norm())) << file;
-    kdl.solver->JntToGravity(q, out);
-    Eigen::VectorXd g(n);
-    obsgain::gravity(model, q.data, g);
-    EXPECT_LE((g - out.data).norm(), 1e-12 * (out.data.norm() + 1.0)) << file;
+    expect_agrees_with_kdl(model, kdl, q, v, file);
   }
 }
 
@@ -156,24 +164,12 @@ TEST(RandomChainsAgainstKdl, TurnedFramesAndPrismaticJointsAgreeTo1e12) {
     ASSERT_EQ(model.dof(), n) << read_text(path);
     ASSERT_EQ(static_cast<int>(kdl.chain.getNrOfJoints()), n);
     for (int trial = 0; trial < 5; ++trial) {
-      KDL::JntArray q(n), v(n), out(n);
-      KDL::JntSpaceInertiaMatrix M_kdl(n);
+      KDL::JntArray q(n), v(n);
       for (int i = 0; i < n; ++i) {
         q(i) = position(rng);
         v(i) = speed(rng);
       }
-      kdl.solver->JntToMass(q, M_kdl);
-      Eigen::MatrixXd M(n, n);
-      obsgain::mass_matrix(model, q.data, M);
-      ASSERT_LE((M - M_kdl.data).norm(), 1e-12 * M_kdl.data.norm()) << read_text(path);
-      kdl.solver->JntToCoriolis(q, v, out);
-      Eigen::VectorXd A(n);
-      obsgain::coriolis(model, q.data, v.data, A);
-      ASSERT_LE((A - out.data).norm(), 1e-12 * (out.data.norm() + M.norm())) << read_text(path);
-      kdl.solver->JntToGravity(q, out);
-      Eigen::VectorXd g(n);
-      obsgain::gravity(model, q.data, g);
-      ASSERT_LE((g - out.data).norm(), 1e-12 * (out.data.norm() + 1.0)) << read_text(path);
+      expect_agrees_with_kdl(model, kdl, q, v, read_text(path));
     }
   }
 }
