@@ -500,53 +500,27 @@ double max_joint_lipschitz_norm(const Model& model, const Eigen::VectorXd& q, co
   return joint_lipschitz_maximum(model, q, velocity_bounds, scaling, choice);
 }
 
-Eigen::VectorXd best_diagonal_scaling(const std::vector<Eigen::MatrixXd>& matrices, double slack) {
-  const auto n = matrices.front().rows();
-  // log t_j for j >= 1 (t_0 = 1: T and cT are the same similarity), within a factor 10³ of the first joint's.
-  const auto scaling = [n](const Eigen::VectorXd& x) {
-    Eigen::VectorXd t = Eigen::VectorXd::Ones(n);
-    t.tail(n - 1) = x.array().exp();
-    return t;
-  };
-  const Objective worst = [&](const Eigen::VectorXd& x) {
-    const Eigen::VectorXd t = scaling(x);
-    double value = 0.0;
-    for (const Eigen::MatrixXd& Phi : matrices)
-      value = std::max(value, spectral_norm(t.asDiagonal() * Phi * t.cwiseInverse().asDiagonal()));
-    return value;
-  };
-  const Eigen::VectorXd bound = Eigen::VectorXd::Constant(n - 1, std::log(1e3));
-  const int evaluations = 300 * static_cast<int>(n - 1);
-  const OptimumPoint best = minimize_nonsmooth(worst, Eigen::VectorXd::Zero(n - 1), -bound, bound, 1e-4, evaluations);
-  if (slack <= 0.0) return scaling(best.x);
-  // The minimum is flat along the joints that matter little: within the slack, the smallest log cond(T) (the
-  // spread of log t, t_0 = 1 included), the excess over the slack penalised (docs/theory.md, "Similarity scaling").
-  const double limit = best.value * (1.0 + slack);
-  const Objective spread = [&](const Eigen::VectorXd& x) {
-    return std::max(0.0, x.maxCoeff()) - std::min(0.0, x.minCoeff()) + 1e3 * std::max(0.0, worst(x) - limit) / limit;
-  };
-  const OptimumPoint narrowest = minimize_nonsmooth(spread, best.x, -bound, bound, 1e-4, evaluations);
-  return scaling(worst(narrowest.x) <= limit ? narrowest.x : best.x);
-}
-
 namespace {
 
-// The symmetric n x n matrix with ones at the k-th entry of the lower triangle, packed row by row, and at its mirror.
-Eigen::MatrixXd symmetric_unit(int n, int k) {
-  Eigen::MatrixXd E = Eigen::MatrixXd::Zero(n, n);
-  for (int i = 0, index = 0; i < n; ++i)
-    for (int j = 0; j <= i; ++j, ++index)
-      if (index == k) E(i, j) = E(j, i) = 1.0;
-  return E;
+// A basis of the metrics W searched: every symmetric n x n matrix (ones at one entry of the lower triangle, packed row
+// by row, and at its mirror) or every diagonal one (a one on the diagonal).
+std::vector<Eigen::MatrixXd> metric_basis(int n, bool diagonal) {
+  std::vector<Eigen::MatrixXd> units;
+  for (int i = 0; i < n; ++i)
+    for (int j = diagonal ? i : 0; j <= i; ++j) {
+      Eigen::MatrixXd E = Eigen::MatrixXd::Zero(n, n);
+      E(i, j) = E(j, i) = 1.0;
+      units.push_back(std::move(E));
+    }
+  return units;
 }
 
-// Some W with I ≼ W ≼ κ I and Φ̂ᵀ W Φ̂ ≺ W for every Φ̂ given (empty when the solver finds none): minimise τ over
-// Φ̂ᵀ W Φ̂ - W ≼ τ I, stopped at the first iterate with τ < 0 that every block confirms in double.
-Eigen::MatrixXd contracting_metric(const std::vector<Eigen::MatrixXd>& matrices, double kappa) {
+// Some W in the span of the units with I ≼ W ≼ κ I and Φ̂ᵀ W Φ̂ ≺ W for every Φ̂ given (empty when the solver finds
+// none): minimise τ over Φ̂ᵀ W Φ̂ - W ≼ τ I, stopped at the first iterate with τ < 0 that every block confirms in double.
+Eigen::MatrixXd contracting_metric(const std::vector<Eigen::MatrixXd>& matrices, const std::vector<Eigen::MatrixXd>& units,
+                                   double kappa) {
   const auto n = static_cast<int>(matrices.front().rows());
-  const int p = n * (n + 1) / 2;
-  std::vector<Eigen::MatrixXd> units;
-  for (int k = 0; k < p; ++k) units.push_back(symmetric_unit(n, k));
+  const auto p = static_cast<int>(units.size());
   const auto W_of = [&](const Eigen::VectorXd& y) {
     Eigen::MatrixXd W = Eigen::MatrixXd::Zero(n, n);
     for (int k = 0; k < p; ++k) W += y(k) * units[static_cast<std::size_t>(k)];
@@ -575,7 +549,7 @@ Eigen::MatrixXd contracting_metric(const std::vector<Eigen::MatrixXd>& matrices,
   for (const Eigen::MatrixXd& Phi : matrices) tau = std::max(tau, c * (spectral_norm(Phi) * spectral_norm(Phi) - 1.0));
   SdpOptions o;
   o.start = Eigen::VectorXd::Zero(p + 1);
-  for (int i = 0; i < n; ++i) o.start(i * (i + 1) / 2 + i) = c;
+  for (int k = 0; k < p; ++k) o.start(k) = units[static_cast<std::size_t>(k)].trace() > 0.0 ? c : 0.0;
   o.start(p) = tau + 1.0;
   const auto confirmed = [&](const Eigen::VectorXd& y) {
     if (!(y(p) < 0.0)) return false;
@@ -592,19 +566,19 @@ Eigen::MatrixXd contracting_metric(const std::vector<Eigen::MatrixXd>& matrices,
   return confirmed(r.y) ? W_of(r.y) : Eigen::MatrixXd();
 }
 
-}  // namespace
-
-Eigen::MatrixXd best_similarity(const std::vector<Eigen::MatrixXd>& matrices, double max_condition) {
+// The smallest t (to the relative resolution given) for which some W of the units' span with I ≼ W ≼ κ I has
+// ||W^½ Φ W^-½|| < t for every Φ, and that W: T = I gives max ||Φ||, so a bisection on t below it, on Φ / t.
+Eigen::MatrixXd smallest_contraction(const std::vector<Eigen::MatrixXd>& matrices, const std::vector<Eigen::MatrixXd>& units,
+                                     double kappa, double resolution, double& t_best) {
   const auto n = matrices.front().rows();
-  // T = I gives max ||Φ||: bisection on t below it, on Φ / t.
   double low = 0.0, high = 0.0;
   for (const Eigen::MatrixXd& Phi : matrices) high = std::max(high, spectral_norm(Phi));
   Eigen::MatrixXd best_W = Eigen::MatrixXd::Identity(n, n);
   std::vector<Eigen::MatrixXd> scaled(matrices.size());
-  for (int step = 0; step < 30 && high - low > 1e-4 * high; ++step) {
+  for (int step = 0; step < 60 && high - low > resolution * high; ++step) {
     const double t = 0.5 * (low + high);
     for (std::size_t i = 0; i < matrices.size(); ++i) scaled[i] = matrices[i] / t;
-    const Eigen::MatrixXd W = contracting_metric(scaled, max_condition * max_condition);
+    const Eigen::MatrixXd W = contracting_metric(scaled, units, kappa);
     if (W.size() == 0) {
       low = t;
     } else {
@@ -612,8 +586,52 @@ Eigen::MatrixXd best_similarity(const std::vector<Eigen::MatrixXd>& matrices, do
       best_W = W;
     }
   }
+  t_best = high;
+  return best_W;
+}
+
+// cond(T) of a diagonal T at most 10³ (a factor 10⁶ in W); the minimum and the smallest cond within the slack, each
+// to a relative 1e-6.
+constexpr double kDiagonalMaxCondition = 1e3;
+constexpr double kDiagonalResolution = 1e-6;
+
+}  // namespace
+
+Eigen::VectorXd best_diagonal_scaling(const std::vector<Eigen::MatrixXd>& matrices, double slack) {
+  const auto n = static_cast<int>(matrices.front().rows());
+  const std::vector<Eigen::MatrixXd> units = metric_basis(n, true);
+  const double kappa = kDiagonalMaxCondition * kDiagonalMaxCondition;
+  double t_best = 0.0;
+  Eigen::MatrixXd W = smallest_contraction(matrices, units, kappa, kDiagonalResolution, t_best);
+  if (slack > 0.0) {
+    // The minimum is flat along the joints that matter little: within the slack, the smallest cond(W) = κ
+    // (docs/theory.md, "Similarity scaling"), by a bisection on log κ at t = (1 + slack) t_best.
+    const double limit = t_best * (1.0 + slack);
+    std::vector<Eigen::MatrixXd> scaled(matrices.size());
+    for (std::size_t i = 0; i < matrices.size(); ++i) scaled[i] = matrices[i] / limit;
+    double low = 0.0, high = std::log(kappa);
+    for (int step = 0; step < 60 && high - low > kDiagonalResolution; ++step) {
+      const double middle = 0.5 * (low + high);
+      const Eigen::MatrixXd narrower = contracting_metric(scaled, units, std::exp(middle));
+      if (narrower.size() == 0) {
+        low = middle;
+      } else {
+        high = middle;
+        W = narrower;
+      }
+    }
+  }
+  const Eigen::VectorXd w = W.diagonal();
+  return (w / w(0)).cwiseSqrt();
+}
+
+Eigen::MatrixXd best_similarity(const std::vector<Eigen::MatrixXd>& matrices, double max_condition) {
+  const auto n = static_cast<int>(matrices.front().rows());
+  double t_best = 0.0;
+  const Eigen::MatrixXd W =
+      smallest_contraction(matrices, metric_basis(n, false), max_condition * max_condition, 1e-4, t_best);
   // W = TᵀT with T upper triangular (Cholesky), normalised to T(0, 0) = 1.
-  const Eigen::MatrixXd T = Eigen::LLT<Eigen::MatrixXd>(best_W).matrixU();
+  const Eigen::MatrixXd T = Eigen::LLT<Eigen::MatrixXd>(W).matrixU();
   return T / T(0, 0);
 }
 

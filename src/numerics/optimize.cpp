@@ -42,6 +42,10 @@ double nlopt_objective(const std::vector<double>& x, std::vector<double>& /*grad
   return std::isfinite(value) ? value : -std::numeric_limits<double>::max();
 }
 
+// The second differences' step, relative to a coordinate (at least 1): their truncation error is of order h² and their
+// rounding of order ε/h², both near 1e-8 of the function's scale here.
+constexpr double kHessianStep = 1e-4;
+
 // Minimises -f; keeps the best point seen so that a premature Ipopt stop still returns a valid maximum.
 class PolishProblem final : public Ipopt::TNLP {
  public:
@@ -61,7 +65,7 @@ class PolishProblem final : public Ipopt::TNLP {
     n = static_cast<Ipopt::Index>(x0_.size());
     m = 0;
     nnz_jac_g = 0;
-    nnz_h_lag = 0;
+    nnz_h_lag = n * (n + 1) / 2;
     index_style = C_STYLE;
     return true;
   }
@@ -97,6 +101,34 @@ class PolishProblem final : public Ipopt::TNLP {
       if (!std::isfinite(forward) || !std::isfinite(backward)) return false;
       grad_f[i] = -(forward - backward) / (2.0 * h);
     }
+    return true;
+  }
+  // The Hessian of -f by second differences, its lower triangle row by row: Newton's steps take a handful of
+  // iterations where limited-memory updates take a hundred, each a factorisation (docs/theory.md, "The constants").
+  bool eval_h(Ipopt::Index n, const Ipopt::Number* x, bool, Ipopt::Number obj_factor, Ipopt::Index, const Ipopt::Number*,
+              bool, Ipopt::Index, Ipopt::Index* iRow, Ipopt::Index* jCol, Ipopt::Number* values) override {
+    if (values == nullptr) {
+      for (Ipopt::Index i = 0, k = 0; i < n; ++i)
+        for (Ipopt::Index j = 0; j <= i; ++j, ++k) iRow[k] = i, jCol[k] = j;
+      return true;
+    }
+    const Eigen::VectorXd point = Eigen::Map<const Eigen::VectorXd>(x, n);
+    const Eigen::VectorXd h = (point.cwiseAbs().cwiseMax(1.0) * kHessianStep).eval();
+    const auto at = [&](Ipopt::Index i, double a, Ipopt::Index j, double b) {
+      Eigen::VectorXd moved = point;
+      moved(i) += a * h(i);
+      moved(j) += b * h(j);
+      return evaluate(moved);
+    };
+    const double centre = evaluate(point);
+    for (Ipopt::Index i = 0, k = 0; i < n; ++i)
+      for (Ipopt::Index j = 0; j <= i; ++j, ++k) {
+        const double second = i == j ? (at(i, 1.0, i, 0.0) - 2.0 * centre + at(i, -1.0, i, 0.0)) / (h(i) * h(i))
+                                     : (at(i, 1.0, j, 1.0) - at(i, 1.0, j, -1.0) - at(i, -1.0, j, 1.0) + at(i, -1.0, j, -1.0)) /
+                                           (4.0 * h(i) * h(j));
+        if (!std::isfinite(second)) return false;
+        values[k] = -obj_factor * second;
+      }
     return true;
   }
   bool eval_g(Ipopt::Index, const Ipopt::Number*, bool, Ipopt::Index, Ipopt::Number*) override { return true; }
@@ -170,15 +202,6 @@ OptimumPoint maximize_global(const Objective& f, const Eigen::VectorXd& lower, c
   return run_nlopt(nlopt::GN_DIRECT_L, f, x, lower, upper, 1e-12, max_evaluations);
 }
 
-OptimumPoint minimize_nonsmooth(const Objective& f, const Eigen::VectorXd& x0, const Eigen::VectorXd& lower,
-                                const Eigen::VectorXd& upper, double tolerance, int max_evaluations) {
-  const Objective negated = [&f](const Eigen::VectorXd& x) { return -f(x); };
-  OptimumPoint best = run_nlopt(nlopt::LN_SBPLX, negated, std::vector<double>(x0.data(), x0.data() + x0.size()), lower,
-                                upper, tolerance, max_evaluations);
-  best.value = -best.value;
-  return best;
-}
-
 ScalarOptimum minimize_golden(const std::function<double(double)>& f, double lower, double upper, double tolerance,
                               int max_iterations) {
   const double ratio = (std::sqrt(5.0) - 1.0) / 2.0;
@@ -210,7 +233,6 @@ OptimumPoint maximize_local(const Objective& f, const Eigen::VectorXd& x0, const
   Ipopt::SmartPtr<Ipopt::IpoptApplication> app = IpoptApplicationFactory();
   app->Options()->SetIntegerValue("print_level", 0);
   app->Options()->SetStringValue("sb", "yes");
-  app->Options()->SetStringValue("hessian_approximation", "limited-memory");
   app->Options()->SetNumericValue("tol", 1e-11);
   app->Options()->SetNumericValue("bound_relax_factor", 0.0);
   app->Options()->SetIntegerValue("max_iter", 200);

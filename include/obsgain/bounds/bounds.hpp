@@ -19,10 +19,11 @@ namespace obsgain {
 
 struct BoundOptions {
   int global_evaluations_per_dimension = 1500;  // DIRECT-L budget per searched joint
-  // Ipopt starts: the global argmax plus the best sample points. 8: with 3 the Jaco2 with armature's L_joint estimate
-  // ended 3.4 % below what 6 or more starts reach, arm7's and the Panda's with armature 0.16 and 0.2 %; with 12 none
-  // rose further, and each start costs a local solve (docs/theory.md, "The constants").
-  int polish_starts = 8;
+  // Ipopt starts: the global argmax plus the best sample points. 16: Newton's steps (numerics/optimize.hpp) end on a
+  // lower peak than limited-memory ones from some starts (the published Jaco2's M0 6.5 % lower from 8 starts); from 16
+  // every estimate on ten arms is within 3e-5 of eight limited-memory polishes' or above, in less time (docs/theory.md,
+  // "The constants").
+  int polish_starts = 16;
   int samples_per_dimension = 64;               // sample points that seed the extra polish starts
   int threads = 0;  // the polishes run at once on this many cores (0: all), each in a process; the same results
   // Similarity scaling: the T that minimises L_T over the configurations the searches found worst is kept when its
@@ -104,10 +105,11 @@ double max_coriolis_jacobian_norm(const Model& model, const Eigen::VectorXd& q, 
 double max_joint_lipschitz_norm(const Model& model, const Eigen::VectorXd& q, const Eigen::VectorXd& velocity_bounds,
                                 const Eigen::MatrixXd& scaling = {});
 
-// The diagonal T (scaling(0) = 1) that minimises max ||T Φ T⁻¹|| over the matrices given: the largest singular value
-// of e^X Φ e^-X is convex in the diagonal X (docs/theory.md, "Similarity scaling"), so a local search from T = I
-// finds the minimum. With a slack, of the T within that fraction of the minimum, one of smaller cond(T) (a second
-// local search, from the minimiser).
+// The diagonal T (scaling(0) = 1, cond(T) <= 10³) that minimises max ||T Φ T⁻¹|| over the matrices given: with
+// W = TᵀT diagonal, ||T Φ T⁻¹|| <= t iff Φᵀ W Φ ≼ t² W, so the smallest t is a bisection (relative 1e-6) of
+// semidefinite feasibility problems in W's diagonal, a global minimum. With a slack, of the T within that fraction of
+// the minimum, one of the smallest cond(T): a bisection on the bound κ of I ≼ W ≼ κ I (docs/theory.md, "Similarity
+// scaling"). Both answers move continuously with the matrices.
 Eigen::VectorXd best_diagonal_scaling(const std::vector<Eigen::MatrixXd>& matrices, double slack = 0.0);
 
 // The upper triangular T with cond(T) <= max_condition that minimises max ||T Φ T⁻¹|| over the matrices given:

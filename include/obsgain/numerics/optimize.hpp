@@ -31,14 +31,8 @@ struct ScalarOptimum {
 ScalarOptimum minimize_golden(const std::function<double(double)>& f, double lower, double upper, double tolerance,
                               int max_iterations);
 
-// Local minimisation of a function that need not be smooth (a maximum of norms, say) from x0 inside [lower, upper]
-// (NLopt LN_SBPLX, a derivative-free simplex method), until steps are below `tolerance` or after `max_evaluations`.
-// Returns the best point evaluated, never worse than x0.
-OptimumPoint minimize_nonsmooth(const Objective& f, const Eigen::VectorXd& x0, const Eigen::VectorXd& lower,
-                                const Eigen::VectorXd& upper, double tolerance, int max_evaluations);
-
-// Local maximisation from x0 inside [lower, upper] (Ipopt, limited-memory quasi-Newton). Gradients are
-// central differences, so f must be smooth near the maximiser. Returns the best point Ipopt evaluated,
+// Local maximisation from x0 inside [lower, upper] (Ipopt, Newton's steps). Gradients are central differences and
+// the Hessian second differences, so f must be smooth near the maximiser. Returns the best point Ipopt evaluated,
 // never worse than x0.
 OptimumPoint maximize_local(const Objective& f, const Eigen::VectorXd& x0, const Eigen::VectorXd& lower,
                             const Eigen::VectorXd& upper);
