@@ -8,6 +8,7 @@
 
 #include <cerrno>
 #include <cstddef>
+#include <cstdio>
 #include <optional>
 
 namespace obsgain {
@@ -32,8 +33,10 @@ bool write_all(int fd, const std::string& bytes) {
 }
 
 // The child runs the task and leaves with _exit: no destructor, atexit handler or stdio flush of the parent's state
-// runs twice. Exit code 0 only with its whole result written.
+// runs twice. Exit code 0 only with its whole result written. The child inherits stdio's buffers, and a task may
+// flush them (Ipopt does, as it ends): the parent's pending output is written before the fork, so never twice.
 std::optional<Child> start(const std::function<std::string(int)>& task, int index) {
+  std::fflush(nullptr);
   int fds[2];
   if (pipe(fds) != 0) return std::nullopt;
   const pid_t pid = fork();

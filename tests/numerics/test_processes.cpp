@@ -4,6 +4,10 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdio>
+#include <fcntl.h>
+#include <fstream>
+#include <iterator>
 #include <set>
 #include <stdexcept>
 #include <string>
@@ -50,6 +54,30 @@ TEST(Processes, AChildWithoutAResultIsRunAgainHereAndItsExceptionReachesTheCalle
   }
   // An empty result is a result.
   EXPECT_EQ(obsgain::map_in_processes(2, 2, [](int) { return std::string(); }), (std::vector<std::string>{"", ""}));
+}
+
+// Output the parent has not written yet is written once, though every child flushes stdio's buffers (as Ipopt does
+// when it ends): stdout is sent to a file, a line without its newline left pending, and four tasks flush.
+TEST(Processes, OutputPendingInTheParentIsWrittenOnceNotByEveryChild) {
+  const std::string path = ::testing::TempDir() + "processes_stdout.txt";
+  std::fflush(stdout);
+  const int saved = dup(1);
+  const int file = open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  ASSERT_GE(saved, 0);
+  ASSERT_GE(file, 0);
+  dup2(file, 1);
+  std::fputs("pending in the parent", stdout);  // no newline: stdio keeps it, line-buffered or not
+  obsgain::map_in_processes(4, 2, [](int) {
+    std::fflush(stdout);
+    return std::string("ok");
+  });
+  std::fflush(stdout);
+  dup2(saved, 1);
+  close(saved);
+  close(file);
+  std::ifstream in(path);
+  const std::string text{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+  EXPECT_EQ(text, "pending in the parent");
 }
 
 }  // namespace
