@@ -407,22 +407,6 @@ void require_writable(const std::vector<std::pair<std::string, std::string>>& ou
   }
 }
 
-void require_writable_directory(const std::string& option, const std::string& path) {
-  if (!distributed::output_rank()) return;
-  namespace fs = std::filesystem;
-  const std::string named = option + " = '" + path + "'";
-  std::error_code error;
-  const fs::path normal = fs::path(path).lexically_normal();
-  fs::path existing = normal;
-  while (!existing.empty() && !fs::exists(existing, error)) existing = existing.parent_path();
-  if (existing.empty()) existing = ".";
-  if (!fs::is_directory(existing, error))
-    throw InputError(existing == normal ? named + " is not a directory"
-                                        : named + ": '" + existing.string() + "' is not a directory");
-  if (access(existing.c_str(), W_OK) != 0)
-    throw InputError(named + ": the directory '" + existing.string() + "' is not writable");
-}
-
 int run_app(CLI::App& app, int argc, char** argv, const std::function<int()>& body) {
   const distributed::Session mpi(argc, argv);
   // Every rank computes the same answer; rank 0 prints it (the apps write their files on rank 0 only).

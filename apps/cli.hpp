@@ -68,10 +68,6 @@ ValidationTarget load_validation_target(const DesignArguments& design, const std
 // InputError ends an MPI job (run_app).
 void require_writable(const std::vector<std::pair<std::string, std::string>>& outputs);
 
-// The same for an output directory (verify-bounds' --out): it is a writable directory, or the nearest part of its path
-// that exists is one (the report creates the rest).
-void require_writable_directory(const std::string& option, const std::string& path);
-
 // A finite number, or InputError "<name> = '<text>' is not a number".
 double parse_number(const std::string& name, const std::string& text);
 // "1,2.5,3" -> (1, 2.5, 3).

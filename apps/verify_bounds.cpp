@@ -22,7 +22,7 @@ int main(int argc, char** argv) {
   std::string out;
   app.add_option("--out", out, "output directory")->required()->type_name("DIRECTORY");
   return obsgain::run_app(app, argc, argv, [&] {
-    obsgain::require_writable_directory("--out", out);
+    if (obsgain::distributed::output_rank()) obsgain::require_report_directory("--out", out);  // rank 0 writes it
     const obsgain::Model model = obsgain::load_robot(obsgain::to_robot_source(design));
     const obsgain::DesignRequest request = obsgain::to_design_request(design, model);
     obsgain::VerificationOptions options;

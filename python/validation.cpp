@@ -148,6 +148,7 @@ py::dict verify(const Robot& robot, const std::string& out, const py::object& pr
   options.monte_carlo = monte_carlo_options(arguments, hooks, options.monte_carlo.trials, threads);
   DesignRequest request = design_request(arguments, hooks, threads);
   refuse_unknown(arguments, "verify_bounds");
+  require_report_directory("out", out);
   validate_monte_carlo_options(options.monte_carlo);
   validate_design_options(request.design);
   options.design = request.design;

@@ -534,6 +534,20 @@ std::vector<std::string> draw(const std::vector<Plot>& plot_list, const fs::path
 
 }  // namespace
 
+void require_report_directory(const std::string& option, const std::string& directory) {
+  const std::string named = option + " = '" + directory + "'";
+  std::error_code error;
+  const fs::path normal = fs::path(directory).lexically_normal();
+  fs::path existing = normal;
+  while (!existing.empty() && !fs::exists(existing, error)) existing = existing.parent_path();
+  if (existing.empty()) existing = ".";
+  if (!fs::is_directory(existing, error))
+    throw InputError(existing == normal ? named + " is not a directory"
+                                        : named + ": '" + existing.string() + "' is not a directory");
+  if (access(existing.c_str(), W_OK) != 0)
+    throw InputError(named + ": the directory '" + existing.string() + "' is not writable");
+}
+
 WrittenReport write_verification_report(const VerificationReport& r, const std::string& directory) {
   const fs::path dir = fs::absolute(fs::path(directory));
   std::error_code error;

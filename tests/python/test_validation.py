@@ -67,6 +67,17 @@ def test_verify_bounds_writes_the_report(pendubot, design, tmp_path):
     assert "obsgain.verify_bounds(load_robot('pendubot')" in open(result["html"], encoding="utf-8").read()
 
 
+def test_verify_bounds_refuses_a_file_as_its_directory_before_any_work(pendubot, tmp_path):
+    # The app's message for --out, named out; found before the design, which would report progress.
+    path = tmp_path / "a_file"
+    path.write_text("not a directory")
+    calls = []
+    with pytest.raises(ValueError) as error:
+        obsgain.verify_bounds(pendubot, str(path), gamma=1.27, trials=8, progress=calls.append)
+    assert str(error.value) == f"out = '{path}' is not a directory"
+    assert calls == []
+
+
 def interrupt_after(seconds):
     timer = threading.Timer(seconds, lambda: os.kill(os.getpid(), signal.SIGINT))
     timer.start()

@@ -66,5 +66,9 @@ struct WrittenReport {
 // Writes DIR/report.json, DIR/report.html (self-contained: plots inline as SVG) and the CSV behind every
 // plot. Plots are drawn by gnuplot from the CSVs; without gnuplot the report still builds and says so.
 WrittenReport write_verification_report(const VerificationReport& report, const std::string& directory);
+// InputError unless write_verification_report can write to `directory`: it is a writable directory, or the nearest
+// part of its path that exists is one (the writer creates the rest). `option` names it in the message (--out, out).
+// Asked before the work, so that a bad directory is not found after minutes of search.
+void require_report_directory(const std::string& option, const std::string& directory);
 
 }  // namespace obsgain
