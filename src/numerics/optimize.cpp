@@ -121,11 +121,14 @@ class PolishProblem final : public Ipopt::TNLP {
       return evaluate(moved);
     };
     const double centre = evaluate(point);
+    const auto second_difference = [&](Ipopt::Index i, Ipopt::Index j) {
+      if (i == j) return (at(i, 1.0, i, 0.0) - 2.0 * centre + at(i, -1.0, i, 0.0)) / (h(i) * h(i));
+      const double cross = at(i, 1.0, j, 1.0) - at(i, 1.0, j, -1.0) - at(i, -1.0, j, 1.0) + at(i, -1.0, j, -1.0);
+      return cross / (4.0 * h(i) * h(j));
+    };
     for (Ipopt::Index i = 0, k = 0; i < n; ++i)
       for (Ipopt::Index j = 0; j <= i; ++j, ++k) {
-        const double second = i == j ? (at(i, 1.0, i, 0.0) - 2.0 * centre + at(i, -1.0, i, 0.0)) / (h(i) * h(i))
-                                     : (at(i, 1.0, j, 1.0) - at(i, 1.0, j, -1.0) - at(i, -1.0, j, 1.0) + at(i, -1.0, j, -1.0)) /
-                                           (4.0 * h(i) * h(j));
+        const double second = second_difference(i, j);
         if (!std::isfinite(second)) return false;
         values[k] = -obj_factor * second;
       }

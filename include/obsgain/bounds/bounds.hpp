@@ -21,8 +21,8 @@ struct BoundOptions {
   int global_evaluations_per_dimension = 1500;  // DIRECT-L budget per searched joint
   // Ipopt starts: the global argmax plus the best sample points. 16: Newton's steps (numerics/optimize.hpp) end on a
   // lower peak than limited-memory ones from some starts (the published Jaco2's M0 6.5 % lower from 8 starts); from 16
-  // every estimate on ten arms is within 3e-5 of eight limited-memory polishes' or above, in less time (docs/theory.md,
-  // "The constants").
+  // every M0, B and L_joint estimate on ten arms is within 3e-5 of eight limited-memory polishes' or above, in less
+  // time (docs/theory.md, "The constants").
   int polish_starts = 16;
   int samples_per_dimension = 64;               // sample points that seed the extra polish starts
   int threads = 0;  // the polishes run at once on this many cores (0: all), each in a process; the same results
