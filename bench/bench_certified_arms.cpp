@@ -40,7 +40,16 @@ Run design(const obsgain::Model& model, obsgain::BoundMethod method, double budg
 }  // namespace
 
 int main(int argc, char** argv) {
-  const double budget = argc > 1 ? std::atof(argv[1]) : 120.0;
+  double budget = 120.0;
+  if (argc > 1) {
+    char* end = nullptr;
+    budget = std::strtod(argv[1], &end);
+    if (argc > 2 || end == argv[1] || *end != '\0' || !(budget >= 0.0 && std::isfinite(budget))) {
+      fmt::print(stderr, "bench_certified_arms: '{}' is not a budget: give one number of reference seconds >= 0 "
+                         "(default 120)\n", argv[argc > 2 ? 2 : 1]);
+      return 2;
+    }
+  }
   const std::string examples = OBSGAIN_EXAMPLES_DIR;
   const std::vector<Arm> arms{
       {"Pendubot (built in)", "pendubot", {}},
