@@ -4,13 +4,15 @@
 // certified design rests on (L_T's where the scaled certificate is chosen). About 25 minutes on 2 cores.
 // Run: build/bench/bench_certified_arms [BUDGET_SECONDS]
 #include "obsgain/design/design.hpp"
+#include "obsgain/model/input_error.hpp"
 #include "obsgain/parsers/robots.hpp"
+
+#include "cli.hpp"
 
 #include <fmt/format.h>
 
 #include <chrono>
 #include <cmath>
-#include <cstdlib>
 #include <string>
 #include <vector>
 
@@ -41,14 +43,13 @@ Run design(const obsgain::Model& model, obsgain::BoundMethod method, double budg
 
 int main(int argc, char** argv) {
   double budget = 120.0;
-  if (argc > 1) {
-    char* end = nullptr;
-    budget = std::strtod(argv[1], &end);
-    if (argc > 2 || end == argv[1] || *end != '\0' || !(budget >= 0.0 && std::isfinite(budget))) {
-      fmt::print(stderr, "bench_certified_arms: '{}' is not a budget: give one number of reference seconds >= 0 "
-                         "(default 120)\n", argv[argc > 2 ? 2 : 1]);
-      return 2;
-    }
+  try {
+    if (argc > 2) throw obsgain::InputError(fmt::format("'{}' is one argument too many", argv[2]));
+    if (argc > 1) budget = obsgain::parse_number("budget", argv[1]);
+    if (budget < 0.0) throw obsgain::InputError(fmt::format("budget = {} must be >= 0", argv[1]));
+  } catch (const obsgain::InputError& error) {
+    fmt::print(stderr, "bench_certified_arms: {} (give one number of reference seconds, default 120)\n", error.what());
+    return 2;
   }
   const std::string examples = OBSGAIN_EXAMPLES_DIR;
   const std::vector<Arm> arms{
