@@ -1,6 +1,7 @@
 #include "obsgain/bounds/branch_and_bound.hpp"
 
 #include "obsgain/numerics/distributed.hpp"
+#include "obsgain/numerics/heap.hpp"
 #include "obsgain/numerics/parallel.hpp"
 
 #include <algorithm>
@@ -203,6 +204,7 @@ std::optional<SearchStop> stop_reason(const BranchAndBoundProblem& problem, cons
 
 BranchAndBoundResult branch_and_bound(const BranchAndBoundProblem& problem, const Eigen::VectorXd& seed,
                                       const BranchAndBoundOptions& options) {
+  keep_freed_memory();
   const auto start = std::chrono::steady_clock::now();
   auto next_report = start + std::chrono::seconds(1);
   auto next_save = start + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
