@@ -1,5 +1,5 @@
-// The heap kept for reuse (numerics/heap.hpp): a loop that allocates and frees a megabyte in small blocks, as a box
-// of the branch and bound does (in megabytes), faults its pages in once, not once per round.
+// The heap kept for reuse (numerics/heap.hpp): a loop that allocates and frees a megabyte in small blocks, as each box
+// of the branch and bound does with its forms, faults its pages in once, not once per round.
 #include "obsgain/numerics/heap.hpp"
 
 #include <gtest/gtest.h>
