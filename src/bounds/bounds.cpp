@@ -566,27 +566,38 @@ Eigen::MatrixXd contracting_metric(const std::vector<Eigen::MatrixXd>& matrices,
   return confirmed(r.y) ? W_of(r.y) : Eigen::MatrixXd();
 }
 
+// The bisection both searches below share: the least parameter in (low, high] at which `metric` finds a W (none is
+// assumed at low, one at high), until `resolved(low, high)` or 60 halvings. `W` becomes the last W found.
+template <typename Metric, typename Resolved>
+double least_feasible(double low, double high, const Metric& metric, const Resolved& resolved, Eigen::MatrixXd& W) {
+  for (int step = 0; step < 60 && !resolved(low, high); ++step) {
+    const double middle = 0.5 * (low + high);
+    Eigen::MatrixXd found = metric(middle);
+    if (found.size() == 0) {
+      low = middle;
+    } else {
+      high = middle;
+      W = std::move(found);
+    }
+  }
+  return high;
+}
+
 // The smallest t (to the relative resolution given) for which some W of the units' span with I ≼ W ≼ κ I has
 // ||W^½ Φ W^-½|| < t for every Φ, and that W: T = I gives max ||Φ||, so a bisection on t below it, on Φ / t.
 Eigen::MatrixXd smallest_contraction(const std::vector<Eigen::MatrixXd>& matrices, const std::vector<Eigen::MatrixXd>& units,
                                      double kappa, double resolution, double& t_best) {
   const auto n = matrices.front().rows();
-  double low = 0.0, high = 0.0;
-  for (const Eigen::MatrixXd& Phi : matrices) high = std::max(high, spectral_norm(Phi));
+  double largest = 0.0;
+  for (const Eigen::MatrixXd& Phi : matrices) largest = std::max(largest, spectral_norm(Phi));
   Eigen::MatrixXd best_W = Eigen::MatrixXd::Identity(n, n);
   std::vector<Eigen::MatrixXd> scaled(matrices.size());
-  for (int step = 0; step < 60 && high - low > resolution * high; ++step) {
-    const double t = 0.5 * (low + high);
+  const auto metric = [&](double t) {
     for (std::size_t i = 0; i < matrices.size(); ++i) scaled[i] = matrices[i] / t;
-    const Eigen::MatrixXd W = contracting_metric(scaled, units, kappa);
-    if (W.size() == 0) {
-      low = t;
-    } else {
-      high = t;
-      best_W = W;
-    }
-  }
-  t_best = high;
+    return contracting_metric(scaled, units, kappa);
+  };
+  t_best = least_feasible(0.0, largest, metric, [&](double low, double high) { return high - low <= resolution * high; },
+                          best_W);
   return best_W;
 }
 
@@ -609,17 +620,9 @@ Eigen::VectorXd best_diagonal_scaling(const std::vector<Eigen::MatrixXd>& matric
     const double limit = t_best * (1.0 + slack);
     std::vector<Eigen::MatrixXd> scaled(matrices.size());
     for (std::size_t i = 0; i < matrices.size(); ++i) scaled[i] = matrices[i] / limit;
-    double low = 0.0, high = std::log(kappa);
-    for (int step = 0; step < 60 && high - low > kDiagonalResolution; ++step) {
-      const double middle = 0.5 * (low + high);
-      const Eigen::MatrixXd narrower = contracting_metric(scaled, units, std::exp(middle));
-      if (narrower.size() == 0) {
-        low = middle;
-      } else {
-        high = middle;
-        W = narrower;
-      }
-    }
+    least_feasible(
+        0.0, std::log(kappa), [&](double log_kappa) { return contracting_metric(scaled, units, std::exp(log_kappa)); },
+        [](double low, double high) { return high - low <= kDiagonalResolution; }, W);
   }
   const Eigen::VectorXd w = W.diagonal();
   return (w / w(0)).cwiseSqrt();
