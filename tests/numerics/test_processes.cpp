@@ -65,14 +65,14 @@ TEST(Processes, OutputPendingInTheParentIsWrittenOnceNotByEveryChild) {
   const int file = open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
   ASSERT_GE(saved, 0);
   ASSERT_GE(file, 0);
-  dup2(file, 1);
+  ASSERT_EQ(dup2(file, 1), 1);
   std::fputs("pending in the parent", stdout);  // no newline: stdio keeps it, line-buffered or not
   obsgain::map_in_processes(4, 2, [](int) {
     std::fflush(stdout);
     return std::string("ok");
   });
   std::fflush(stdout);
-  dup2(saved, 1);
+  ASSERT_EQ(dup2(saved, 1), 1);
   close(saved);
   close(file);
   std::ifstream in(path);
