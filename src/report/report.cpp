@@ -214,10 +214,10 @@ nlohmann::json to_json(const DeployedDesign& deployed) {
   return j;
 }
 
-nlohmann::json to_json(const Design& d) {
-  nlohmann::json bounds = to_json(d.bounds);
-  bounds["L_used"] = d.L_used;
-  bounds["L_source"] = d.L_source;
+namespace {
+
+// The design chosen: its certificate's numbers, the shape and the target it was chosen for.
+nlohmann::json design_json(const Design& d) {
   nlohmann::json design = to_json(d.selected());
   design["alpha"] = d.alpha;
   design["beta"] = d.beta;
@@ -229,20 +229,66 @@ nlohmann::json to_json(const Design& d) {
                                                          {"theta", d.at_attained->theta},
                                                          {"gamma", d.at_attained->rate}}
                                         : nlohmann::json(nullptr);
+  return design;
+}
+
+// What monte-carlo needs to load the same robot again: the source, the armature and the --joint-limits override.
+nlohmann::json robot_json(const Design& d) {
+  nlohmann::json robot = {{"name", d.robot_name},
+                          {"dof", d.dof},
+                          {"source", d.robot_source.robot},
+                          {"base_link", d.robot_source.base_link},
+                          {"tip_link", d.robot_source.tip_link},
+                          {"actuated", d.robot_source.actuated},
+                          {"armature", to_json(d.armature)},
+                          {"fingerprint", d.robot_fingerprint}};
+  if (!d.robot_source.joint_limits.empty()) {
+    nlohmann::json limits = nlohmann::json::array();
+    for (const JointDomain& domain : d.robot_source.joint_limits)
+      limits.push_back(domain.continuous ? nlohmann::json("c") : nlohmann::json{domain.lower, domain.upper});
+    robot["joint_limits"] = limits;
+  }
+  return robot;
+}
+
+nlohmann::json to_json(const PolytopeSummary& p) {
+  return {{"method", p.method},         {"cells", p.cells},           {"vertices", p.vertices},
+          {"grid", p.grid},             {"samples", p.samples},       {"cuts", p.cuts},
+          {"proof_boxes", p.proof_boxes}, {"proof_work", p.proof_work}, {"refuted", p.refuted},
+          {"unproven", p.unproven},     {"seconds", p.seconds}};
+}
+
+nlohmann::json to_json(const ShapeReport& shape) {
+  nlohmann::json j = {{"objective", shape.objective},         {"alpha_global", shape.alpha_global},
+                      {"alpha_polish", shape.alpha_polish},   {"objective_global", shape.objective_global},
+                      {"objective_polish", shape.objective_polish}, {"evaluations", shape.evaluations}};
+  if (const auto& p = shape.polytopic)
+    j["polytopic"] = {{"alpha", p->alpha},
+                      {"objective", p->objective},
+                      {"objective_at_norm_bound_alpha", p->objective_at_norm_bound_alpha},
+                      {"evaluations", p->evaluations}};
+  return j;
+}
+
+}  // namespace
+
+nlohmann::json to_json(const Design& d) {
+  nlohmann::json bounds = to_json(d.bounds);
+  bounds["L_used"] = d.L_used;
+  bounds["L_source"] = d.L_source;
+  if (d.bounds.certified) bounds["brackets"] = certified_json(d.bounds);
   nlohmann::json j = {
-      {"robot",
-       {{"name", d.robot_name}, {"dof", d.dof}, {"source", d.robot_source.robot},
-        {"base_link", d.robot_source.base_link}, {"tip_link", d.robot_source.tip_link},
-        {"actuated", d.robot_source.actuated}}},
+      {"robot", robot_json(d)},
       {"velocity_bounds", to_json(d.velocity_bounds)},
       {"bounds", bounds},
       {"lyapunov",
        {{"S", to_json(d.lyapunov.S)}, {"S_block", to_json(Eigen::MatrixXd(d.lyapunov.S2))},
         {"S_norm", d.lyapunov.S_norm}, {"residual", d.lyapunov.residual}}},
       {"certificate", to_string(d.certificate)},
-      {"design", design},
+      {"design", design_json(d)},
       {"comparison", {{"paper", to_json(d.paper)}, {"tight", to_json(d.tight)}}},
       {"warnings", d.warnings},
+      {"notes", d.notes},
       {"wall_seconds", d.wall_seconds}};
   // The verdict a tool reads first: proven, or an estimate and why.
   j["certified"] = d.selected().observer.certified && d.proven();
@@ -250,35 +296,10 @@ nlohmann::json to_json(const Design& d) {
     j["certified_reason"] = d.unfinished;
   else if (!d.proven())
     j["certified_reason"] = d.not_proven_reason;
-  if (d.bounds.certified) j["bounds"]["brackets"] = certified_json(d.bounds);
   if (d.scaled) j["comparison"]["scaled"] = to_json(*d.scaled);
   if (d.polytopic) j["comparison"]["polytopic"] = to_json(*d.polytopic);
-  if (d.polytope)
-    j["polytope"] = {{"method", d.polytope->method},       {"cells", d.polytope->cells},
-                     {"vertices", d.polytope->vertices},   {"grid", d.polytope->grid},
-                     {"samples", d.polytope->samples},     {"cuts", d.polytope->cuts},
-                     {"proof_boxes", d.polytope->proof_boxes}, {"proof_work", d.polytope->proof_work},
-                     {"refuted", d.polytope->refuted},
-                     {"unproven", d.polytope->unproven},   {"seconds", d.polytope->seconds}};
-  j["notes"] = d.notes;
-  j["robot"]["armature"] = to_json(d.armature);
-  j["robot"]["fingerprint"] = d.robot_fingerprint;
-  if (!d.robot_source.joint_limits.empty()) {
-    nlohmann::json limits = nlohmann::json::array();
-    for (const JointDomain& domain : d.robot_source.joint_limits)
-      limits.push_back(domain.continuous ? nlohmann::json("c") : nlohmann::json{domain.lower, domain.upper});
-    j["robot"]["joint_limits"] = limits;  // the --joint-limits override, so that monte-carlo loads the same robot
-  }
-  if (d.shape.optimized) {
-    j["shape"] = {{"objective", d.shape.objective},         {"alpha_global", d.shape.alpha_global},
-                  {"alpha_polish", d.shape.alpha_polish},   {"objective_global", d.shape.objective_global},
-                  {"objective_polish", d.shape.objective_polish}, {"evaluations", d.shape.evaluations}};
-    if (const auto& p = d.shape.polytopic)
-      j["shape"]["polytopic"] = {{"alpha", p->alpha},
-                                 {"objective", p->objective},
-                                 {"objective_at_norm_bound_alpha", p->objective_at_norm_bound_alpha},
-                                 {"evaluations", p->evaluations}};
-  }
+  if (d.polytope) j["polytope"] = to_json(*d.polytope);
+  if (d.shape.optimized) j["shape"] = to_json(d.shape);
   return j;
 }
 
