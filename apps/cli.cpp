@@ -62,7 +62,7 @@ int parse_count(const std::string& name, const std::string& text, int minimum) {
 
 // No more threads than could ever help.
 int parse_threads(const std::string& text) {
-  const int threads = parse_count("threads", text, 0);
+  const int threads = parse_count("--threads", text, 0);
   if (threads > 256) throw InputError(fmt::format("--threads = {} must lie in [0, 256] (0: all cores)", text));
   return threads;
 }
@@ -219,11 +219,11 @@ std::optional<DeploymentOptions> to_deployment_options(const DesignArguments& a)
   const auto list = [](const char* name, const std::string& text) {
     return text.empty() ? std::nullopt : std::optional<Eigen::VectorXd>(parse_number_list(name, text));
   };
-  r.sample_period = number("sample-period", a.sample_period);
-  r.latency = number("latency", a.latency);
-  r.velocity_error_tolerance = number("velocity-error-tolerance", a.velocity_error_tolerance);
-  r.encoder_counts = list("encoder-counts", a.encoder_counts);
-  r.acceleration_bounds = list("acceleration-bounds", a.acceleration_bounds);
+  r.sample_period = number("--sample-period", a.sample_period);
+  r.latency = number("--latency", a.latency);
+  r.velocity_error_tolerance = number("--velocity-error-tolerance", a.velocity_error_tolerance);
+  r.encoder_counts = list("--encoder-counts", a.encoder_counts);
+  r.acceleration_bounds = list("--acceleration-bounds", a.acceleration_bounds);
   r.objective = a.objective == "velocity-error" ? DesignObjective::velocity_error : DesignObjective::rate;
   return deployment_options(r);
 }
@@ -241,12 +241,12 @@ void refuse_empty_values(const DesignArguments& a) {
 DesignRequest to_design_request(const DesignArguments& a, const Model& model) {
   refuse_empty_values(a);
   DesignOptions o;
-  if (!a.gamma.empty()) o.gamma = parse_number("gamma", a.gamma);
-  if (!a.theta.empty()) o.theta = parse_number("theta", a.theta);
+  if (!a.gamma.empty()) o.gamma = parse_number("--gamma", a.gamma);
+  if (!a.theta.empty()) o.theta = parse_number("--theta", a.theta);
   if (a.optimize_shape && (!a.alpha.empty() || !a.beta.empty()))
     throw InputError("--optimize-shape chooses alpha and beta: do not give --alpha or --beta with it");
-  if (!a.alpha.empty()) o.alpha = parse_number("alpha", a.alpha);
-  if (!a.beta.empty()) o.beta = parse_number("beta", a.beta);
+  if (!a.alpha.empty()) o.alpha = parse_number("--alpha", a.alpha);
+  if (!a.beta.empty()) o.beta = parse_number("--beta", a.beta);
   o.optimize_shape = a.optimize_shape;
   if (!a.quiet && model.dof() > 2)
     o.progress = [](const std::string& phase) {
@@ -258,13 +258,13 @@ DesignRequest to_design_request(const DesignArguments& a, const Model& model) {
   if (!a.certificate.empty()) o.certificate = certificate_kind(a.certificate).value();  // CLI11 checked the name
   if (a.polytope_cells) o.polytope.cells = *a.polytope_cells;
   o.bound_method = a.bounds == "numeric" ? BoundMethod::numeric : BoundMethod::certified;
-  if (!a.L.empty()) o.L_override = parse_number("L", a.L);
-  if (!a.rate_margin.empty()) o.rate_margin = parse_number("rate-margin", a.rate_margin);
-  if (!a.bound_budget.empty()) o.certified_bounds.budget_seconds = parse_number("bound-budget", a.bound_budget);
-  if (!a.proof_budget.empty()) o.polytopic_search.proof_budget = parse_number("proof-budget", a.proof_budget);
+  if (!a.L.empty()) o.L_override = parse_number("--L", a.L);
+  if (!a.rate_margin.empty()) o.rate_margin = parse_number("--rate-margin", a.rate_margin);
+  if (!a.bound_budget.empty()) o.certified_bounds.budget_seconds = parse_number("--bound-budget", a.bound_budget);
+  if (!a.proof_budget.empty()) o.polytopic_search.proof_budget = parse_number("--proof-budget", a.proof_budget);
   o.certified_bounds.threads = parse_threads(a.threads);
   o.certified_bounds.journal = open_search_journal(a.checkpoint, a.resume);
-  if (!a.vmax.empty()) o.velocity_bounds = parse_number_list("vmax", a.vmax);
+  if (!a.vmax.empty()) o.velocity_bounds = parse_number_list("--vmax", a.vmax);
   validate_design_options(o);
   return {o, to_deployment_options(a)};
 }
@@ -278,25 +278,25 @@ RobotSource to_robot_source(const DesignArguments& a) {
       if (item != "c") {
         const auto colon = item.find(':');
         if (colon == std::string::npos)
-          throw InputError(fmt::format("joint-limits: range {} = '{}' is not lower:upper or c", i, item));
+          throw InputError(fmt::format("--joint-limits: range {} = '{}' is not lower:upper or c", i, item));
         domain.continuous = false;
-        domain.lower = parse_number(fmt::format("joint-limits lower {}", i), item.substr(0, colon));
-        domain.upper = parse_number(fmt::format("joint-limits upper {}", i), item.substr(colon + 1));
+        domain.lower = parse_number(fmt::format("--joint-limits lower {}", i), item.substr(0, colon));
+        domain.upper = parse_number(fmt::format("--joint-limits upper {}", i), item.substr(colon + 1));
         if (!(domain.lower < domain.upper))
-          throw InputError(fmt::format("joint-limits: range {} = '{}' needs lower < upper", i, item));
+          throw InputError(fmt::format("--joint-limits: range {} = '{}' needs lower < upper", i, item));
       }
       source.joint_limits.push_back(domain);
     }
   }
   if (!a.armature.empty()) {
-    const Eigen::VectorXd armature = parse_number_list("armature", a.armature);
+    const Eigen::VectorXd armature = parse_number_list("--armature", a.armature);
     source.armature.assign(armature.data(), armature.data() + armature.size());
   }
   // The loaders check the values (load_urdf: flags 0 or 1; armature >= 0); here only that a flag is a whole number.
   if (!a.actuated.empty()) {
-    for (const double flag : parse_number_list("actuated", a.actuated)) {
+    for (const double flag : parse_number_list("--actuated", a.actuated)) {
       if (flag != std::floor(flag) || std::abs(flag) > 1e9)
-        throw InputError(fmt::format("actuated: flag {} must be 0 or 1", flag));
+        throw InputError(fmt::format("--actuated: flag {} must be 0 or 1", flag));
       source.actuated.push_back(static_cast<int>(flag));
     }
   }
@@ -339,15 +339,15 @@ MonteCarloOptions to_monte_carlo_options(const MonteCarloArguments& a, const Des
                 << std::flush;
       progress_line_open = true;
     };
-  o.trials = parse_count("trials", a.trials, 1);
-  const double seed = parse_number("seed", a.seed);
-  if (seed < 0 || seed != std::floor(seed) || seed > 9e15) throw InputError(fmt::format("seed = {} must be a whole number >= 0", a.seed));
+  o.trials = parse_count("--trials", a.trials, 1);
+  const double seed = parse_number("--seed", a.seed);
+  if (seed < 0 || seed != std::floor(seed) || seed > 9e15) throw InputError(fmt::format("--seed = {} must be a whole number >= 0", a.seed));
   o.seed = static_cast<std::uint64_t>(seed);
   o.threads = parse_threads(design.threads);
-  o.simulation.horizon = parse_number("horizon", a.horizon);
-  o.simulation.rtol = parse_number("rtol", a.rtol);
-  o.simulation.atol = parse_number("atol", a.atol);
-  if (a.step_budget_option && a.step_budget_option->count() > 0) o.step_budget = parse_number("step-budget", a.step_budget);
+  o.simulation.horizon = parse_number("--horizon", a.horizon);
+  o.simulation.rtol = parse_number("--rtol", a.rtol);
+  o.simulation.atol = parse_number("--atol", a.atol);
+  if (a.step_budget_option && a.step_budget_option->count() > 0) o.step_budget = parse_number("--step-budget", a.step_budget);
   o.scenario = a.scenario == "paper" ? Scenario::paper : Scenario::random;
   o.initial_errors = a.initial_errors == "practical" ? InitialErrors::practical
                      : a.initial_errors == "global"  ? InitialErrors::global

@@ -59,7 +59,7 @@ TEST(DesignGainsApp, RefusesBadInputWithOneLineAndExit2) {
   expect_refused("--gamma -1", "gamma = -1");
   expect_refused("--gamma 0", "gamma = 0");
   expect_refused("--gamma nan", "gamma");
-  expect_refused("--gamma abc", "gamma = 'abc'");
+  expect_refused("--gamma abc", "--gamma = 'abc' is not a decimal number");
   expect_refused("--theta -5", "theta = -5");
   expect_refused("--gamma 1 --theta 100", "exactly one");
   expect_refused("", "exactly one");
@@ -84,14 +84,14 @@ TEST(DesignGainsApp, RefusesValuesOutsideTheAdmissibleRanges) {
   expect_refused("--gamma 1e300", "--gamma = 1e+300 must lie in");
   expect_refused("--theta 1e300", "--theta = 1e+300 must lie in");
   expect_refused("--theta 1e-300", "--theta = 1e-300 must lie in");
-  expect_refused("--gamma 0x10", "gamma = '0x10' is not a decimal number");
+  expect_refused("--gamma 0x10", "--gamma = '0x10' is not a decimal number");
   expect_refused("--gamma \"\" --theta 10", "--gamma = '' is empty");
   expect_refused("--gamma 1 --vmax \"\"", "--vmax = '' is empty");
   expect_refused("--gamma 1 --vmax 1e300,1e300", "V1 = 1e+300 (--vmax) must lie in");
   // A list's last empty item is refused as an inner one is (it was dropped: "1,2," read as two values).
-  expect_refused("--gamma 1 --vmax 1,1,", "vmax = '' is not a decimal number");
+  expect_refused("--gamma 1 --vmax 1,1,", "--vmax = '' is not a decimal number");
   expect_refused("--robot " + std::string(OBSGAIN_EXAMPLES_DIR) + "/arm3.urdf --gamma 1 --joint-limits c,-1:1,c,",
-                 "joint-limits: range 4 = '' is not lower:upper or c");
+                 "--joint-limits: range 4 = '' is not lower:upper or c");
   expect_refused("--gamma 1 --bound-budget -1", "--bound-budget = -1");
   expect_refused("--gamma 1 --proof-budget 0", "--proof-budget = 0 must lie in (0, 1e6]");
   expect_refused("--gamma 1 --proof-budget 1e7", "--proof-budget = 10000000 must lie in");
@@ -117,7 +117,7 @@ TEST(DesignGainsApp, RefusesValuesOutsideTheAdmissibleRanges) {
   expect_refused("--theta 200 --horizon 1e9", "--horizon = 1000000000 must lie in", "monte-carlo");
   expect_refused("--theta 200 --threads 10000", "--threads = 10000", "monte-carlo");
   expect_refused("--theta 200 --step-budget 0", "--step-budget = 0 must be at least 1", "monte-carlo");
-  expect_refused("--theta 200 --step-budget \"\"", "step-budget = '' is not a decimal number", "monte-carlo");
+  expect_refused("--theta 200 --step-budget \"\"", "--step-budget = '' is not a decimal number", "monte-carlo");
 }
 
 // A design file fixes the robot and the gains: design options beside it, or a model file changed since the
