@@ -123,7 +123,7 @@ Model load_model_file(const std::string& path, const std::vector<double>& armatu
   nlohmann::json j = parse_model(file, path);
   if (!armature.empty()) {
     if (armature.size() != 2)
-      throw InputError(fmt::format("armature: the model has 2 joints; give one value per joint, not {}", armature.size()));
+      throw InputError(fmt::format("--armature: the model has 2 joints; give one value per joint, not {}", armature.size()));
     j["armature"] = armature;
   }
   return model_from_json(j, path);

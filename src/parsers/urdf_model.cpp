@@ -449,9 +449,9 @@ Eigen::VectorXd chain_armature(const tinyxml2::XMLDocument& document, const std:
   Eigen::VectorXd armature = Eigen::VectorXd::Zero(n);
   if (!options.armature.empty()) {
     if (static_cast<int>(options.armature.size()) != n)
-      throw InputError(fmt::format("armature: the chain has {} joints; give one value per joint, not {}", n, options.armature.size()));
+      throw InputError(fmt::format("--armature: the chain has {} joints; give one value per joint, not {}", n, options.armature.size()));
     for (int i = 0; i < n; ++i) {
-      if (!(options.armature[i] >= 0.0)) throw InputError(fmt::format("armature: a{} = {} must be >= 0", i + 1, options.armature[i]));
+      if (!(options.armature[i] >= 0.0)) throw InputError(fmt::format("--armature: a{} = {} must be >= 0", i + 1, options.armature[i]));
       armature(i) = options.armature[i];
     }
     return armature;

@@ -413,7 +413,11 @@ TEST(Urdf, MalformedRobotsExitTwoWithOneLine) {
   expect_refused("--robot " + examples + "/arm3.urdf --base-link forearm --tip-link turret --gamma 1",
                  "no chain from 'forearm' down to 'turret'");
   expect_refused("--robot " + examples + "/pendubot.urdf --actuated 1,0,1 --gamma 1", "2 joints; give one flag per joint, not 3");
-  expect_refused("--robot " + examples + "/panda.urdf --armature 0.1 --gamma 1", "7 joints; give one value per joint, not 1");
+  expect_refused("--robot " + examples + "/panda.urdf --armature 0.1 --gamma 1",
+                 "--armature: the chain has 7 joints; give one value per joint, not 1");
+  expect_refused("--robot " + examples + "/arm3.urdf --armature -1,0,0 --gamma 1", "--armature: a1 = -1 must be >= 0");
+  expect_refused("--robot " + examples + "/acrobot.json --armature 0.1 --gamma 1",
+                 "--armature: the model has 2 joints; give one value per joint, not 1");
   expect_refused("--robot " + examples + "/pendubot.urdf --joint-limits c --gamma 1", "2 joints; give one range per joint, not 1");
   expect_refused("--robot pendubot --actuated 1,0 --gamma 1", "apply to URDF robots only");
 }
