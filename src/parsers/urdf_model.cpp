@@ -127,7 +127,7 @@ JointDomain joint_domain(const urdf::Joint& joint, const JointDomain* override_l
   if (override_limits) {
     domain = *override_limits;
     if (domain.continuous && type == JointType::prismatic)
-      throw InputError(fmt::format("joint-limits: joint '{}' is prismatic: it needs lower:upper, not c", joint.name));
+      throw InputError(fmt::format("--joint-limits: joint '{}' is prismatic: it needs lower:upper, not c", joint.name));
   } else if (joint.type == urdf::Joint::CONTINUOUS) {
     return domain;
   } else {
@@ -480,14 +480,14 @@ Eigen::VectorXd chain_armature(const tinyxml2::XMLDocument& document, const std:
 Eigen::MatrixXd input_matrix(const std::vector<int>& actuated, int n) {
   if (actuated.empty()) return Eigen::MatrixXd::Identity(n, n);
   if (static_cast<int>(actuated.size()) != n)
-    throw InputError(fmt::format("actuated: the chain has {} joints; give one flag per joint, not {}", n, actuated.size()));
+    throw InputError(fmt::format("--actuated: the chain has {} joints; give one flag per joint, not {}", n, actuated.size()));
   std::vector<int> columns;
   for (int i = 0; i < n; ++i) {
     if (actuated[i] != 0 && actuated[i] != 1)
-      throw InputError(fmt::format("actuated: flag {} = {} must be 0 or 1", i + 1, actuated[i]));
+      throw InputError(fmt::format("--actuated: flag {} = {} must be 0 or 1", i + 1, actuated[i]));
     if (actuated[i] == 1) columns.push_back(i);
   }
-  if (columns.empty()) throw InputError("actuated: at least one joint must be actuated");
+  if (columns.empty()) throw InputError("--actuated: at least one joint must be actuated");
   Eigen::MatrixXd H = Eigen::MatrixXd::Zero(n, static_cast<Eigen::Index>(columns.size()));
   for (std::size_t c = 0; c < columns.size(); ++c) H(columns[c], static_cast<Eigen::Index>(c)) = 1.0;
   return H;
@@ -511,7 +511,7 @@ Model load_urdf(const RobotSource& options) {
   const int n = built.chain.dof();
   if (n == 0) throw InputError(fmt::format("{}: the chain below '{}' has no moving joint", source, base));
   if (!options.joint_limits.empty() && static_cast<int>(options.joint_limits.size()) != n)
-    throw InputError(fmt::format("joint-limits: the chain has {} joints; give one range per joint, not {}", n,
+    throw InputError(fmt::format("--joint-limits: the chain has {} joints; give one range per joint, not {}", n,
                                  options.joint_limits.size()));
   if (!built.locked.empty()) {
     model.notes.push_back(fmt::format("locked and lumped into the chain's bodies: {} (middle of range, or as <mimic> says)",

@@ -412,13 +412,16 @@ TEST(Urdf, MalformedRobotsExitTwoWithOneLine) {
   expect_refused("--robot " + examples + "/arm3.urdf --tip-link gripper --gamma 1", "there is no link 'gripper'");
   expect_refused("--robot " + examples + "/arm3.urdf --base-link forearm --tip-link turret --gamma 1",
                  "no chain from 'forearm' down to 'turret'");
-  expect_refused("--robot " + examples + "/pendubot.urdf --actuated 1,0,1 --gamma 1", "2 joints; give one flag per joint, not 3");
+  expect_refused("--robot " + examples + "/pendubot.urdf --actuated 1,0,1 --gamma 1",
+                 "--actuated: the chain has 2 joints; give one flag per joint, not 3");
+  expect_refused("--robot " + examples + "/arm3.urdf --actuated 0,0,0 --gamma 1", "--actuated: at least one joint must be actuated");
   expect_refused("--robot " + examples + "/panda.urdf --armature 0.1 --gamma 1",
                  "--armature: the chain has 7 joints; give one value per joint, not 1");
   expect_refused("--robot " + examples + "/arm3.urdf --armature -1,0,0 --gamma 1", "--armature: a1 = -1 must be >= 0");
   expect_refused("--robot " + examples + "/acrobot.json --armature 0.1 --gamma 1",
                  "--armature: the model has 2 joints; give one value per joint, not 1");
-  expect_refused("--robot " + examples + "/pendubot.urdf --joint-limits c --gamma 1", "2 joints; give one range per joint, not 1");
+  expect_refused("--robot " + examples + "/pendubot.urdf --joint-limits c --gamma 1",
+                 "--joint-limits: the chain has 2 joints; give one range per joint, not 1");
   expect_refused("--robot pendubot --actuated 1,0 --gamma 1", "apply to URDF robots only");
 }
 
