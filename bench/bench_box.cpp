@@ -76,9 +76,9 @@ void FormsByKind(benchmark::State& state, const char* file, std::vector<double> 
   const obsgain::JointSearch search = obsgain::joint_search(model, obsgain::configuration_joints(model));
   const auto box = [&](double narrow, double wide) {
     std::vector<obsgain::Interval> b;
-    for (const obsgain::Interval& side : search.domain) {
-      const double radius = std::min(b.size() % 2 ? wide : narrow, 0.5 * (side.upper() - side.lower()));
-      const double centre = side.lower() + 0.37 * (side.upper() - side.lower());
+    for (const obsgain::Interval& side : search.domain) {  // inside the side: centred at 0.37 of it
+      const double width = side.upper() - side.lower();
+      const double radius = std::min(b.size() % 2 ? wide : narrow, 0.37 * width), centre = side.lower() + 0.37 * width;
       b.emplace_back(centre - radius, centre + radius);
     }
     return b;
