@@ -294,10 +294,11 @@ RobotSource to_robot_source(const DesignArguments& a) {
   }
   // The loaders check the values (load_urdf: flags 0 or 1; armature >= 0); here only that a flag is a whole number.
   if (!a.actuated.empty()) {
-    for (const double flag : parse_number_list("--actuated", a.actuated)) {
-      if (flag != std::floor(flag) || std::abs(flag) > 1e9)
-        throw InputError(fmt::format("--actuated: flag {} must be 0 or 1", flag));
-      source.actuated.push_back(static_cast<int>(flag));
+    const Eigen::VectorXd flags = parse_number_list("--actuated", a.actuated);
+    for (Eigen::Index i = 0; i < flags.size(); ++i) {
+      if (flags(i) != std::floor(flags(i)) || std::abs(flags(i)) > 1e9)
+        throw InputError(fmt::format("--actuated: flag {} = {} must be 0 or 1", i + 1, flags(i)));
+      source.actuated.push_back(static_cast<int>(flags(i)));
     }
   }
   return source;

@@ -415,6 +415,9 @@ TEST(Urdf, MalformedRobotsExitTwoWithOneLine) {
   expect_refused("--robot " + examples + "/pendubot.urdf --actuated 1,0,1 --gamma 1",
                  "--actuated: the chain has 2 joints; give one flag per joint, not 3");
   expect_refused("--robot " + examples + "/arm3.urdf --actuated 0,0,0 --gamma 1", "--actuated: at least one joint must be actuated");
+  // A fraction is refused before the loader (which refuses 2), in the loader's words.
+  expect_refused("--robot " + examples + "/arm3.urdf --actuated 1,0.5,1 --gamma 1", "--actuated: flag 2 = 0.5 must be 0 or 1");
+  expect_refused("--robot " + examples + "/arm3.urdf --actuated 1,2,1 --gamma 1", "--actuated: flag 2 = 2 must be 0 or 1");
   expect_refused("--robot " + examples + "/panda.urdf --armature 0.1 --gamma 1",
                  "--armature: the chain has 7 joints; give one value per joint, not 1");
   expect_refused("--robot " + examples + "/arm3.urdf --armature -1,0,0 --gamma 1", "--armature: a1 = -1 must be >= 0");
