@@ -136,13 +136,6 @@ Eigen::MatrixXd coriolis_jacobian(const std::vector<Eigen::MatrixXd>& N, const E
 
 namespace {
 
-// The coordinate axis a unit vector is, exactly (0, 1, 2), or -1.
-int coordinate_axis(const Eigen::Vector3d& v) {
-  for (int c = 0; c < 3; ++c)
-    if (std::abs(v(c)) == 1.0 && v((c + 1) % 3) == 0.0 && v((c + 2) % 3) == 0.0) return c;
-  return -1;
-}
-
 // Whether turning a body about a revolute axis through its frame's origin leaves its spatial inertia unchanged: the
 // centre of mass on the axis and the inertia commuting with the rotation's generator [a]x. Only about a coordinate
 // axis (±x, ±y, ±z), where every entry of the cross product and of the commutator is one product by 0 or ±1 or the

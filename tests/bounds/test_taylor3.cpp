@@ -1,8 +1,11 @@
 // Third-order Taylor forms (numerics/taylor3.hpp), on which a box's M and Christoffel tensors are computed: they
 // contain the double values at random points, keep cubic terms exactly among the cubic symbols and bound them beyond,
-// and the in-place operations agree with the operators. The dynamics computed on them are tested in test_taylor.cpp
-// (the box forms' containment, their remainders' order and how close they are to the sampled deviation).
+// the in-place operations agree with the operators, and the dynamics' rules about a coordinate axis give the general
+// rules' forms to the bit. The dynamics computed on them are tested in test_taylor.cpp (the box forms' containment,
+// their remainders' order and how close they are to the sampled deviation).
+#include "obsgain/model/chain_dynamics.hpp"
 #include "obsgain/numerics/dual.hpp"
+#include "obsgain/numerics/interval.hpp"
 #include "obsgain/numerics/taylor3.hpp"
 
 #include <gtest/gtest.h>
@@ -38,6 +41,19 @@ double total(const Taylor3& x) {
 // (degree six), sums, differences, multiples, products added in place, constants with a remainder, and the cosine and
 // sine of one symbol's forms: each contains the value computed in double at random points, and its magnitude bounds
 // its coefficients.
+// Every coefficient, the remainder and the magnitude of two forms, to the bit.
+void expect_identical(const Taylor3& a, const Taylor3& b) {
+  EXPECT_EQ(a.c, b.c);
+  EXPECT_EQ(a.r, b.r);
+  EXPECT_EQ(a.magnitude, b.magnitude);
+  ASSERT_EQ(a.s1, b.s1);
+  ASSERT_EQ(a.s2, b.s2);
+  ASSERT_EQ(a.s3, b.s3);
+  for (int k = 0; k < a.s1; ++k) EXPECT_EQ(a.a[k], b.a[k]);
+  for (int p = 0; p < a.pairs(); ++p) EXPECT_EQ(a.b[p], b.b[p]);
+  for (int q = 0; q < a.triples(); ++q) EXPECT_EQ(a.t[q], b.t[q]);
+}
+
 TEST(ThirdOrderForms, EncloseProductsSumsAndTrigonometryAtRandomPoints) {
   std::mt19937_64 rng(11);
   std::uniform_real_distribution<double> unit(-1.0, 1.0), centre(-2.0, 2.0), radius(0.0, 0.6);
@@ -101,31 +117,21 @@ TEST(ThirdOrderForms, CubicTermsAreExactAmongTheCubicSymbolsAndBoundedBeyond) {
 TEST(ThirdOrderForms, InPlaceOperationsAgreeWithTheOperators) {
   const Taylor3 x = cos(Taylor3::symbol(0.3, 0.2, 0)) * Taylor3::symbol(2.0, 0.5, 2);
   const Taylor3 y = sin(Taylor3::symbol(-0.7, 0.3, 4)) + Taylor3::symbol(0.1, 0.05, 1) * Taylor3::symbol(1.0, 0.2, 8);
-  const auto expect_same = [](const Taylor3& a, const Taylor3& b) {
-    EXPECT_EQ(a.c, b.c);
-    EXPECT_EQ(a.r, b.r);
-    ASSERT_EQ(a.s1, b.s1);
-    ASSERT_EQ(a.s2, b.s2);
-    ASSERT_EQ(a.s3, b.s3);
-    for (int k = 0; k < a.s1; ++k) EXPECT_EQ(a.a[k], b.a[k]);
-    for (int p = 0; p < a.pairs(); ++p) EXPECT_EQ(a.b[p], b.b[p]);
-    for (int q = 0; q < a.triples(); ++q) EXPECT_EQ(a.t[q], b.t[q]);
-  };
   Taylor3 sum = x;
   obsgain::add_into(sum, sum, y);
-  expect_same(sum, x + y);
+  expect_identical(sum, x + y);
   Taylor3 into_second = y;
   obsgain::add_into(into_second, x, into_second);
-  expect_same(into_second, x + y);
+  expect_identical(into_second, x + y);
   Taylor3 difference = y;
   obsgain::subtract_into(difference, difference, x);
-  expect_same(difference, y - x);
+  expect_identical(difference, y - x);
   Taylor3 scaled = x;
   obsgain::scale_into(scaled, 2.5, scaled);
-  expect_same(scaled, 2.5 * x);
+  expect_identical(scaled, 2.5 * x);
   Taylor3 negated = y;
   obsgain::negate_into(negated, negated);
-  expect_same(negated, -y);
+  expect_identical(negated, -y);
   const auto expect_close = [](const Taylor3& a, const Taylor3& b) {
     EXPECT_NEAR(a.c, b.c, 1e-15);
     EXPECT_NEAR(a.r, b.r, 1e-14);
@@ -179,6 +185,61 @@ TEST(ThirdOrderForms, DualsCopyTheDerivativesInUseAndAreZeroBeyond) {
     ASSERT_EQ(sum.derivative[k].s1, fresh.derivative[k].s1);
   }
   EXPECT_EQ(sum.derivative[2].c, wide.derivative[2].c);  // x² + 0: x²'s centre, exactly
+}
+
+// Every derivative of two duals of forms, as expect_identical above.
+void expect_identical(const obsgain::Dual<Taylor3>& x, const obsgain::Dual<Taylor3>& y) {
+  expect_identical(x.value, y.value);
+  for (int k = 0; k < obsgain::kMaxDirections; ++k) expect_identical(x.derivative[k], y.derivative[k]);
+}
+
+// About a coordinate axis, rotations and rotated inertias refer to their operands' forms where the general rule copies
+// them (model/chain_dynamics.hpp). The results must be the general rule's to the bit, for ±x, ±y and ±z, turned forward
+// and back, on duals of third-order forms (the box forms) and on intervals (the derivatives' enclosures).
+TEST(ThirdOrderForms, CoordinateAxesGiveTheGeneralRulesFormsToTheBit) {
+  using DualForm = obsgain::Dual<Taylor3>;
+  namespace detail = obsgain::chain_detail;
+  const DualForm q = DualForm::variable(Taylor3::symbol(0.7, 0.2, 0), 0, 2);
+  const DualForm c = cos(q), s = sin(q), c2 = c * c - s * s, s2 = 2.0 * (c * s);
+  const auto form = [&](int i) {  // of three symbols, with a derivative in both directions
+    const DualForm u = DualForm::variable(Taylor3::symbol(0.4 * i - 1.3, 0.05 + 0.02 * i, 1 + i % 3), 1, 2);
+    return u * (i % 2 ? c : s) + DualForm(Taylor3::symbol(0.1 * i, 0.03, 2 - i % 2));
+  };
+  const obsgain::Vec3<DualForm> v{form(1), form(2), form(3)};
+  std::array<obsgain::Vec3<DualForm>, 3> I;
+  for (int r = 0; r < 3; ++r)
+    for (int k = 0; k < 3; ++k) I[r][k] = k < r ? I[k][r] : form(4 + 3 * r + k);
+  const obsgain::Interval qi(0.5, 0.9), ci = cos(qi), si = sin(qi), c2i = cos(2.0 * qi), s2i = sin(2.0 * qi);
+  const obsgain::Vec3<obsgain::Interval> vi{obsgain::Interval(-1.0, 0.5), obsgain::Interval(0.25, 2.0),
+                                            obsgain::Interval(-3.0, -1.0)};
+  for (int axis = 0; axis < 3; ++axis)
+    for (const double direction : {1.0, -1.0}) {
+      const Eigen::Vector3d a = direction * Eigen::Vector3d::Unit(axis);
+      for (const double sign : {1.0, -1.0}) {
+        const auto fast = detail::rodrigues_about_coordinate_axis(axis, a, c, s, v, sign);
+        const auto general = detail::rodrigues_about_any_axis(a, c, s, v, sign);
+        const auto fast_i = detail::rodrigues_about_coordinate_axis(axis, a, ci, si, vi, sign);
+        const auto general_i = detail::rodrigues_about_any_axis(a, ci, si, vi, sign);
+        for (int i = 0; i < 3; ++i) {
+          expect_identical(fast[i], general[i]);
+          EXPECT_EQ(fast_i[i].lower(), general_i[i].lower());
+          EXPECT_EQ(fast_i[i].upper(), general_i[i].upper());
+        }
+      }
+      for (const auto formed : {detail::Entries::all, detail::Entries::upper}) {
+        const auto fast = detail::rotated_inertia_about_coordinate_axis(a, c, s, c2, s2, I, formed);
+        const auto general = detail::rotated_inertia_about_any_axis(a, c, s, c2, s2, I, formed);
+        for (int r = 0; r < 3; ++r)
+          for (int k = 0; k < 3; ++k) expect_identical(fast[r][k], general[r][k]);
+      }
+      // And both turn: at ε = 0 the forms are the rotation of v's centres.
+      const Eigen::Vector3d centres(v[0].value.c, v[1].value.c, v[2].value.c);
+      for (const double sign : {1.0, -1.0}) {
+        const Eigen::Vector3d turned = Eigen::AngleAxisd(sign * 0.7, a) * centres;
+        const auto fast = detail::rodrigues(a, c, s, v, sign);
+        for (int i = 0; i < 3; ++i) EXPECT_NEAR(fast[i].value.c, turned(i), 1e-12);
+      }
+    }
 }
 
 // The cosine and sine of a narrow angle are exact to the third order: sin(π/2 + 0.1 ε) = 1 - 0.005 ε² + R with no

@@ -183,10 +183,30 @@ void set_joint_trigonometry(ChainKinematics<S>& k, int i, const S& c, const S& s
 
 namespace chain_detail {
 
+// rodrigues_about_any_axis (below) about a coordinate axis a = ±e_k. There every entry of the projectors is 0 or 1 and
+// every component of a × v is ±v_j or zero, so the general rule's terms are v's own components, copied or negated
+// first: component k is v_k, and component i != k is c v_i + (±s) v_j, with the sign on s (a product by a negated
+// factor is the negated product, so the forms are the general rule's to the bit). A URDF's axes mostly are coordinate
+// axes, and the copies were a fifth of a box's forms on the UR5 (docs/history.md, the fortieth round).
+template <class S>
+Vec3<S> rodrigues_about_coordinate_axis(int k, const Eigen::Vector3d& a, const S& c, const S& s, const Vec3<S>& v,
+                                        double sign) {
+  const S negated_s = -s;
+  const auto component = [&](int i) {
+    if (i == k) return v[k];
+    const int j = 3 - i - k;
+    S z(0.0);
+    multiply_add(z, v[i], c);
+    multiply_add(z, v[j], sign * a.cross(Eigen::Vector3d::Unit(j))(i) > 0.0 ? s : negated_s);  // ± (a × v)_i s
+    return z;
+  };
+  return {component(0), component(1), component(2)};
+}
+
 // Rot(a, ±q) v = (a aᵀ) v + c (I - a aᵀ) v ± s (a × v), the projectors in double: for an axis along a
 // coordinate axis each component then involves c and s at most once (no dependency on intervals).
 template <class S>
-Vec3<S> rodrigues(const Eigen::Vector3d& a, const S& c, const S& s, const Vec3<S>& v, double sign) {
+Vec3<S> rodrigues_about_any_axis(const Eigen::Vector3d& a, const S& c, const S& s, const Vec3<S>& v, double sign) {
   const Eigen::Matrix3d along = a * a.transpose();
   const Eigen::Matrix3d across = Eigen::Matrix3d::Identity() - along;
   const Vec3<S> perpendicular = rotate(across, v), axv = cross(a, v);
@@ -203,6 +223,13 @@ Vec3<S> rodrigues(const Eigen::Vector3d& a, const S& c, const S& s, const Vec3<S
     return z;
   };
   return {component(0), component(1), component(2)};
+}
+
+// Rot(a, ±q) v on enclosures, by either rule above (the same forms either way about a coordinate axis).
+template <class S>
+Vec3<S> rodrigues(const Eigen::Vector3d& a, const S& c, const S& s, const Vec3<S>& v, double sign) {
+  const int k = coordinate_axis(a);
+  return k >= 0 ? rodrigues_about_coordinate_axis(k, a, c, s, v, sign) : rodrigues_about_any_axis(a, c, s, v, sign);
 }
 
 // From body i's frame into body i-1's, and back. A joint placed without a rotation (P_i = 1) skips it: the
@@ -359,6 +386,14 @@ std::array<Vec3<S>, 3> sandwich(const Eigen::Matrix3d& A, const std::array<Vec3<
   return rows_of<S>(entry, formed);
 }
 
+// Rot(a, q) = A0 + c A1 + s A2 with A0 = a aᵀ, A1 = 1 - a aᵀ and A2 = [a×], in double.
+struct AxisProjectors {
+  Eigen::Matrix3d A0, A1, A2;
+  explicit AxisProjectors(const Eigen::Vector3d& a) : A0(a * a.transpose()), A1(Eigen::Matrix3d::Identity() - A0) {
+    A2 << 0.0, -a.z(), a.y(), a.z(), 0.0, -a.x(), -a.y(), a.x(), 0.0;
+  }
+};
+
 // Rot I Rotᵀ for Rot = Rot(a, q) on enclosures. With Rot = A0 + c A1 + s A2 (A0 = a aᵀ, A1 = 1 - a aᵀ, A2 = [a×]) and
 // c² = (1 + cos 2q)/2, s² = (1 - cos 2q)/2, cs = sin 2q / 2:
 //   Rot I Rotᵀ = T0 + c T1 + s T2 + cos 2q T3 + sin 2q T4,
@@ -370,15 +405,13 @@ std::array<Vec3<S>, 3> sandwich(const Eigen::Matrix3d& A, const std::array<Vec3<
 // cubic terms are gathered across the four before their moduli are taken ("Cubic terms gathered across a rotated
 // inertia's sum").
 template <class S>
-std::array<Vec3<S>, 3> rotated_inertia(const Eigen::Vector3d& a, const S& c, const S& s, const S& c2, const S& s2,
-                                       const std::array<Vec3<S>, 3>& I, Entries formed) {
-  const Eigen::Matrix3d A0 = a * a.transpose(), A1 = Eigen::Matrix3d::Identity() - A0;
-  Eigen::Matrix3d A2;
-  A2 << 0.0, -a.z(), a.y(), a.z(), 0.0, -a.x(), -a.y(), a.x(), 0.0;
+std::array<Vec3<S>, 3> rotated_inertia_about_any_axis(const Eigen::Vector3d& a, const S& c, const S& s, const S& c2,
+                                                      const S& s2, const std::array<Vec3<S>, 3>& I, Entries formed) {
+  const AxisProjectors A(a);
   // An entry (r, k) reads I00, I11 and I22 at (r, k) only, the other three at (r, k) and (k, r).
-  const auto I00 = sandwich(A0, I, A0, formed), I11 = sandwich(A1, I, A1, formed), I22 = sandwich(A2, I, A2, formed);
-  const auto I01 = sandwich(A0, I, A1, Entries::all), I02 = sandwich(A0, I, A2, Entries::all);
-  const auto I12 = sandwich(A1, I, A2, Entries::all);
+  const auto I00 = sandwich(A.A0, I, A.A0, formed), I11 = sandwich(A.A1, I, A.A1, formed);
+  const auto I22 = sandwich(A.A2, I, A.A2, formed), I01 = sandwich(A.A0, I, A.A1, Entries::all);
+  const auto I02 = sandwich(A.A0, I, A.A2, Entries::all), I12 = sandwich(A.A1, I, A.A2, Entries::all);
   const auto entry = [&](int r, int k) {
     const S T0 = I00[r][k] + 0.5 * (I11[r][k] + I22[r][k]);
     const S T1 = I01[r][k] + I01[k][r], T2 = I02[r][k] + I02[k][r];
@@ -386,6 +419,113 @@ std::array<Vec3<S>, 3> rotated_inertia(const Eigen::Vector3d& a, const S& c, con
     return sum_of_products(T0, std::array<const S*, 4>{&c, &s, &c2, &s2}, std::array<const S*, 4>{&T1, &T2, &T3, &T4});
   };
   return rows_of<S>(entry, formed);
+}
+
+// z = x + y, -x, x - y, s x into a fresh z: in place where the scalar can (duals, found by argument-dependent lookup).
+template <class S>
+void sum_into(S& z, const S& x, const S& y) {
+  z = x + y;
+}
+template <class S>
+void negated_into(S& z, const S& x) {
+  z = -x;
+}
+template <class S>
+void difference_into(S& z, const S& x, const S& y) {
+  z = x - y;
+}
+template <class S>
+void scaled_into(S& z, double s, const S& x) {
+  z = s * x;
+}
+
+// A term of rotated_inertia_about_coordinate_axis (below): sign times *form, or zero (sign 0).
+template <class S>
+struct SignedTerm {
+  int sign = 0;
+  const S* form = nullptr;
+};
+// Where the ±1 of each row of a matrix of 0 and ±1 (at most one per row) is, and its sign (0: a zero row).
+struct UnitRows {
+  std::array<int, 3> column{}, sign{};
+  explicit UnitRows(const Eigen::Matrix3d& A) {
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c)
+        if (A(r, c) != 0.0) column[r] = c, sign[r] = A(r, c) > 0.0 ? 1 : -1;
+  }
+  // Entry (r, c) of A I Bᵀ for this A: ±I[i][j] or zero.
+  template <class S>
+  SignedTerm<S> sandwich(const std::array<Vec3<S>, 3>& I, const UnitRows& B, int r, int c) const {
+    const int s = sign[r] * B.sign[c];
+    return {s, s == 0 ? nullptr : &I[column[r]][B.column[c]]};
+  }
+};
+// x + sign y (sign ±1) as the general rule's x + y or x - y rounds it: a zero term gives the other back, and two
+// nonzero ones are summed into `storage`, their common sign carried (-x - y is -(x + y) to the bit).
+template <class S>
+SignedTerm<S> signed_sum(const SignedTerm<S>& x, SignedTerm<S> y, int sign, S& storage) {
+  y.sign *= sign;
+  if (x.sign == 0) return y;
+  if (y.sign == 0) return x;
+  if (x.sign == y.sign) {
+    sum_into(storage, *x.form, *y.form);
+    return {x.sign, &storage};
+  }
+  if (x.sign > 0)
+    difference_into(storage, *x.form, *y.form);
+  else
+    difference_into(storage, *y.form, *x.form);  // -x + y, the same sums
+  return {1, &storage};
+}
+// 0.5 x, its sign carried (0.5 (-x) is -(0.5 x) to the bit).
+template <class S>
+SignedTerm<S> signed_half(const SignedTerm<S>& x, S& storage) {
+  if (x.sign == 0) return x;
+  scaled_into(storage, 0.5, *x.form);
+  return {x.sign, &storage};
+}
+
+// rotated_inertia_about_any_axis (above) about a coordinate axis a = ±e_k. Every row of A0, A1 and A2 then has one
+// entry ±1 or none, so every entry of A_i I A_jᵀ is ±I_rc or zero: it is referred to, not formed by copies (which the
+// general rule makes, a sixth of the UR5's forms: docs/history.md, the fortieth round), and a sum of two is formed only
+// where both are nonzero. Each sum, half and product of nonzero terms is the general rule's on the same forms, with a
+// sign carried or moved onto the other factor ((-c) x is -(c x) to the bit), so every entry is the general rule's.
+template <class S>
+std::array<Vec3<S>, 3> rotated_inertia_about_coordinate_axis(const Eigen::Vector3d& a, const S& c, const S& s,
+                                                             const S& c2, const S& s2, const std::array<Vec3<S>, 3>& I,
+                                                             Entries formed) {
+  const AxisProjectors A(a);
+  const UnitRows R0(A.A0), R1(A.A1), R2(A.A2);
+  const std::array<const S*, 4> factors{&c, &s, &c2, &s2};
+  const S zero(0.0);
+  std::array<S, 4> negated_factors;
+  for (std::size_t m = 0; m < 4; ++m) negated_into(negated_factors[m], *factors[m]);
+  const auto entry = [&](int r, int k) {
+    std::array<S, 10> storage;  // fresh duals: the sums formed for this entry
+    const auto S00 = R0.sandwich(I, R0, r, k), S11 = R1.sandwich(I, R1, r, k), S22 = R2.sandwich(I, R2, r, k);
+    const auto T0 = signed_sum(S00, signed_half(signed_sum(S11, S22, 1, storage[0]), storage[1]), 1, storage[2]);
+    const std::array<SignedTerm<S>, 4> T{
+        signed_sum(R0.sandwich(I, R1, r, k), R0.sandwich(I, R1, k, r), 1, storage[3]),
+        signed_sum(R0.sandwich(I, R2, r, k), R0.sandwich(I, R2, k, r), 1, storage[4]),
+        signed_half(signed_sum(S11, S22, -1, storage[5]), storage[6]),
+        signed_half(signed_sum(R1.sandwich(I, R2, r, k), R1.sandwich(I, R2, k, r), 1, storage[7]), storage[8])};
+    std::array<const S*, 4> x, y;
+    for (std::size_t m = 0; m < 4; ++m) {
+      x[m] = T[m].sign < 0 ? &negated_factors[m] : factors[m];
+      y[m] = T[m].sign == 0 ? &zero : T[m].form;
+    }
+    if (T0.sign < 0) negated_into(storage[9], *T0.form);
+    return sum_of_products(T0.sign == 0 ? zero : T0.sign > 0 ? *T0.form : storage[9], x, y);
+  };
+  return rows_of<S>(entry, formed);
+}
+
+// Rot I Rotᵀ on enclosures, by either rule above (the same forms either way about a coordinate axis).
+template <class S>
+std::array<Vec3<S>, 3> rotated_inertia(const Eigen::Vector3d& a, const S& c, const S& s, const S& c2, const S& s2,
+                                       const std::array<Vec3<S>, 3>& I, Entries formed) {
+  return coordinate_axis(a) >= 0 ? rotated_inertia_about_coordinate_axis(a, c, s, c2, s2, I, formed)
+                                 : rotated_inertia_about_any_axis(a, c, s, c2, s2, I, formed);
 }
 
 // Rows of R I Rᵀ for body i's R = P_i Rot(a_i, q_i) and a symmetric I given by its rows, returned where they are

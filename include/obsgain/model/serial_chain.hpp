@@ -6,6 +6,7 @@
 
 #include <Eigen/Dense>
 
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -21,6 +22,13 @@ struct ChainJoint {
   Eigen::Vector3d translation = Eigen::Vector3d::Zero();
   Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();  // unit, in the joint frame
 };
+
+// The coordinate axis a unit vector is, exactly (0, 1, 2 for ±x, ±y, ±z), or -1.
+inline int coordinate_axis(const Eigen::Vector3d& v) {
+  for (int c = 0; c < 3; ++c)
+    if (std::abs(v(c)) == 1.0 && v((c + 1) % 3) == 0.0 && v((c + 2) % 3) == 0.0) return c;
+  return -1;
+}
 
 // A rigid body in the frame of the joint that moves it: mass, centre of mass, inertia about the centre of mass.
 struct RigidBody {

@@ -89,61 +89,85 @@ void product(T& z, const T& x, const T& y) {
     z = x * y;
 }
 
-// z += x y: in place where the value type can (third-order forms), else a product and a sum.
+// z += x y as a product and a sum (third-order forms multiply into the sum in place: MeasuresFactors, below).
 template <class T>
 void product_added(T& z, const T& x, const T& y) {
-  if constexpr (requires { multiply_add_into(z, x, y); }) {
-    multiply_add_into(z, x, y);
-  } else {
-    T term;
-    product(term, x, y);
-    sum(z, z, term);
-  }
+  T term;
+  product(term, x, y);
+  sum(z, z, term);
 }
 
 }  // namespace dual_detail
 
+// Value types that measure a factor before multiplying it into a sum (third-order forms: its orders' sizes,
+// numerics/taylor3.hpp). A dual's value enters one product per derivative of the other factor, and is measured once.
 template <class T>
-Dual<T> operator+(const Dual<T>& a, const Dual<T>& b) {
-  Dual<T> r;
+concept MeasuresFactors = requires(T& z, const T& x) { multiply_add_into(z, x, factor_sizes(x), x, factor_sizes(x)); };
+
+// z = a + b, -a, a - b, s b written into a dual with no derivative in use (a fresh one): the operators below, and the
+// terms of a rotated inertia about a coordinate axis, formed where they are kept (model/chain_dynamics.hpp).
+template <class T>
+void sum_into(Dual<T>& r, const Dual<T>& a, const Dual<T>& b) {
   dual_detail::sum(r.value, a.value, b.value);
   r.directions = std::max(a.directions, b.directions);
   for (int k = 0; k < r.directions; ++k) dual_detail::sum(r.derivative[k], a.derivative[k], b.derivative[k]);
+}
+template <class T>
+void negated_into(Dual<T>& r, const Dual<T>& a) {
+  dual_detail::negated(r.value, a.value);
+  r.directions = a.directions;
+  for (int k = 0; k < r.directions; ++k) dual_detail::negated(r.derivative[k], a.derivative[k]);
+}
+template <class T>
+void difference_into(Dual<T>& r, const Dual<T>& a, const Dual<T>& b) {
+  dual_detail::difference(r.value, a.value, b.value);
+  r.directions = std::max(a.directions, b.directions);
+  for (int k = 0; k < r.directions; ++k) dual_detail::difference(r.derivative[k], a.derivative[k], b.derivative[k]);
+}
+template <class T>
+void scaled_into(Dual<T>& r, double a, const Dual<T>& b) {
+  dual_detail::scaled(r.value, a, b.value);
+  r.directions = b.directions;
+  for (int k = 0; k < r.directions; ++k) dual_detail::scaled(r.derivative[k], a, b.derivative[k]);
+}
+
+template <class T>
+Dual<T> operator+(const Dual<T>& a, const Dual<T>& b) {
+  Dual<T> r;
+  sum_into(r, a, b);
   return r;
 }
 template <class T>
 Dual<T> operator-(const Dual<T>& a) {
   Dual<T> r;
-  dual_detail::negated(r.value, a.value);
-  r.directions = a.directions;
-  for (int k = 0; k < r.directions; ++k) dual_detail::negated(r.derivative[k], a.derivative[k]);
+  negated_into(r, a);
   return r;
 }
 template <class T>
 Dual<T> operator-(const Dual<T>& a, const Dual<T>& b) {
   Dual<T> r;
-  dual_detail::difference(r.value, a.value, b.value);
-  r.directions = std::max(a.directions, b.directions);
-  for (int k = 0; k < r.directions; ++k) dual_detail::difference(r.derivative[k], a.derivative[k], b.derivative[k]);
+  difference_into(r, a, b);
   return r;
 }
 template <class T>
 Dual<T> operator*(const Dual<T>& a, const Dual<T>& b) {
   Dual<T> r;
-  dual_detail::product(r.value, a.value, b.value);
-  r.directions = std::max(a.directions, b.directions);
-  for (int k = 0; k < r.directions; ++k) {
-    dual_detail::product(r.derivative[k], a.derivative[k], b.value);
-    dual_detail::product_added(r.derivative[k], a.value, b.derivative[k]);
+  if constexpr (MeasuresFactors<T>) {  // into a zero: the same products, each factor's value measured once
+    multiply_add(r, a, b);
+  } else {
+    dual_detail::product(r.value, a.value, b.value);
+    r.directions = std::max(a.directions, b.directions);
+    for (int k = 0; k < r.directions; ++k) {
+      dual_detail::product(r.derivative[k], a.derivative[k], b.value);
+      dual_detail::product_added(r.derivative[k], a.value, b.derivative[k]);
+    }
   }
   return r;
 }
 template <class T>
 Dual<T> operator*(double a, const Dual<T>& b) {
   Dual<T> r;
-  dual_detail::scaled(r.value, a, b.value);
-  r.directions = b.directions;
-  for (int k = 0; k < r.directions; ++k) dual_detail::scaled(r.derivative[k], a, b.derivative[k]);
+  scaled_into(r, a, b);
   return r;
 }
 template <class T>
@@ -201,6 +225,29 @@ T sum_of_products(const T& base, const std::array<const T*, N>& x, const std::ar
   sum_of_products_to(z, base, x, y);
   return z;
 }
+// sum_of_products below for value types that measure their factors: each value measured once for its value's product
+// and every derivative's, the products added in the order of the general rule (the value's as sum_of_products_into's).
+template <MeasuresFactors T, std::size_t N>
+void measured_sum_of_products(Dual<T>& r, const Dual<T>& base, const std::array<const T*, N>& xv,
+                              const std::array<const T*, N>& yv, const std::array<const Dual<T>*, N>& x,
+                              const std::array<const Dual<T>*, N>& y) {
+  std::array<decltype(factor_sizes(base.value)), N> X, Y;
+  r.value = base.value;
+  for (std::size_t m = 0; m < N; ++m) {
+    X[m] = factor_sizes(*xv[m]);
+    Y[m] = factor_sizes(*yv[m]);
+    multiply_add_into(r.value, *xv[m], X[m], *yv[m], Y[m]);
+  }
+  for (int k = 0; k < r.directions; ++k) {
+    T& z = r.derivative[k];
+    z = base.derivative[k];
+    for (std::size_t m = 0; m < N; ++m) {
+      const T &dx = x[m]->derivative[k], &dy = y[m]->derivative[k];
+      multiply_add_into(z, dx, factor_sizes(dx), *yv[m], Y[m]);
+      multiply_add_into(z, *xv[m], X[m], dy, factor_sizes(dy));
+    }
+  }
+}
 // On duals, the value's sum by the value type's rule, and each derivative, Σ_m (x_m' y_m + x_m y_m'), term by term, each
 // product added in place where the value type can. (On second-order forms, gathering the derivatives' cubic terms too
 // cost a third more for the iiwa 14's forms, for a bound 1 % lower on its widest boxes: docs/theory.md, "Cubic terms
@@ -216,14 +263,18 @@ Dual<T> sum_of_products(const Dual<T>& base, const std::array<const Dual<T>*, N>
     directions = std::max({directions, x[m]->directions, y[m]->directions});
   }
   Dual<T> r;
-  sum_of_products_to(r.value, base.value, xv, yv);
   r.directions = directions;
-  for (int k = 0; k < directions; ++k) {
-    T& z = r.derivative[k];
-    z = base.derivative[k];
-    for (std::size_t m = 0; m < N; ++m) {
-      dual_detail::product_added(z, x[m]->derivative[k], y[m]->value);
-      dual_detail::product_added(z, x[m]->value, y[m]->derivative[k]);
+  if constexpr (MeasuresFactors<T>) {
+    measured_sum_of_products(r, base, xv, yv, x, y);
+  } else {
+    sum_of_products_to(r.value, base.value, xv, yv);
+    for (int k = 0; k < directions; ++k) {
+      T& z = r.derivative[k];
+      z = base.derivative[k];
+      for (std::size_t m = 0; m < N; ++m) {
+        dual_detail::product_added(z, x[m]->derivative[k], y[m]->value);
+        dual_detail::product_added(z, x[m]->value, y[m]->derivative[k]);
+      }
     }
   }
   return r;
@@ -231,14 +282,15 @@ Dual<T> sum_of_products(const Dual<T>& base, const std::array<const Dual<T>*, N>
 
 // z += x y, component by component in place, for value types that multiply into a sum (third-order forms; any other
 // scalar takes chain_detail::multiply_add's z + x y, model/chain_dynamics.hpp).
-template <class T>
-  requires requires(T& t, const T& u) { multiply_add_into(t, u, u); }
+template <MeasuresFactors T>
 void multiply_add(Dual<T>& z, const Dual<T>& x, const Dual<T>& y) {
-  multiply_add_into(z.value, x.value, y.value);
+  const auto X = factor_sizes(x.value), Y = factor_sizes(y.value);
+  multiply_add_into(z.value, x.value, X, y.value, Y);
   z.directions = std::max({z.directions, x.directions, y.directions});
   for (int k = 0; k < z.directions; ++k) {
-    multiply_add_into(z.derivative[k], x.derivative[k], y.value);
-    multiply_add_into(z.derivative[k], x.value, y.derivative[k]);
+    const T &dx = x.derivative[k], &dy = y.derivative[k];
+    multiply_add_into(z.derivative[k], dx, factor_sizes(dx), y.value, Y);
+    multiply_add_into(z.derivative[k], x.value, X, dy, factor_sizes(dy));
   }
 }
 

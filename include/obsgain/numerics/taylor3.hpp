@@ -240,12 +240,14 @@ inline void add_constant_product(Taylor3& z, const Taylor3& constant, const Tayl
 // higher-order terms, the cubic terms with another symbol, and every product with a remainder. Each coefficient sums at
 // most nine terms (its own and eight products, each product in one coefficient): rounding within
 // 9.01 · 2⁻⁵² (magnitude(z) + magnitude(x) magnitude(y)).
-inline void multiply_add_into(Taylor3& z, const Taylor3& x, const Taylor3& y) {
+// X and Y are x's and y's sizes, taken by a caller that multiplies one factor into several products (a dual's value
+// enters one per derivative of the other factor, numerics/dual.hpp).
+inline void multiply_add_into(Taylor3& z, const Taylor3& x, const Taylor3::Sizes& X, const Taylor3& y,
+                              const Taylor3::Sizes& Y) {
   using taylor3_detail::add_constant_product;
   if (x.is_zero() || y.is_zero()) return;
   if (x.is_constant()) return add_constant_product(z, x, y);
   if (y.is_constant()) return add_constant_product(z, y, x);
-  const Taylor3::Sizes X = x.sizes(), Y = y.sizes();
   const double X1 = X.linear(), X2 = X.quadratic(), Y1 = Y.linear(), Y2 = Y.quadratic();
   const double xt = taylor_detail::up(std::abs(x.c) + X1 + X2 + X.cubic);
   const double yt = taylor_detail::up(std::abs(y.c) + Y1 + Y2 + Y.cubic);
@@ -271,6 +273,11 @@ inline void multiply_add_into(Taylor3& z, const Taylor3& x, const Taylor3& y) {
   const double dropped = X.high1 * Y2 + X.low1 * Y.high2 + Y.high1 * X2 + Y.low1 * X.high2;
   const double quartic = X1 * Y.cubic + X.cubic * Y1 + X2 * Y2 + X2 * Y.cubic + X.cubic * Y2 + X.cubic * Y.cubic;
   z.r = taylor_detail::up(z.r + dropped + quartic + xt * y.r + yt * x.r + x.r * y.r + rounding);
+}
+// A factor's sizes for the product above: a constant's are not read there, and are not taken.
+inline Taylor3::Sizes factor_sizes(const Taylor3& x) { return x.is_constant() ? Taylor3::Sizes{} : x.sizes(); }
+inline void multiply_add_into(Taylor3& z, const Taylor3& x, const Taylor3& y) {
+  multiply_add_into(z, x, factor_sizes(x), y, factor_sizes(y));
 }
 inline void multiply_into(Taylor3& z, const Taylor3& x, const Taylor3& y) {
   z = Taylor3(0.0);
