@@ -187,7 +187,7 @@ namespace chain_detail {
 // every component of a × v is ±v_j or zero, so the general rule's terms are v's own components, copied or negated
 // first: component k is v_k, and component i != k is c v_i + (±s) v_j, with the sign on s (a product by a negated
 // factor is the negated product, so the forms are the general rule's to the bit). A URDF's axes mostly are coordinate
-// axes, and the copies were a fifth of a box's forms on the UR5 (docs/history.md, the fortieth round).
+// axes, and a box forms every rotation dozens of times (docs/history.md, the fortieth round).
 template <class S>
 Vec3<S> rodrigues_about_coordinate_axis(int k, const Eigen::Vector3d& a, const S& c, const S& s, const Vec3<S>& v,
                                         double sign) {
@@ -487,7 +487,7 @@ SignedTerm<S> signed_half(const SignedTerm<S>& x, S& storage) {
 
 // rotated_inertia_about_any_axis (above) about a coordinate axis a = ±e_k. Every row of A0, A1 and A2 then has one
 // entry ±1 or none, so every entry of A_i I A_jᵀ is ±I_rc or zero: it is referred to, not formed by copies (which the
-// general rule makes, a sixth of the UR5's forms: docs/history.md, the fortieth round), and a sum of two is formed only
+// general rule makes: 9 % of the UR5's forms, docs/history.md, the fortieth round), and a sum of two is formed only
 // where both are nonzero. Each sum, half and product of nonzero terms is the general rule's on the same forms, with a
 // sign carried or moved onto the other factor ((-c) x is -(c x) to the bit), so every entry is the general rule's.
 template <class S>
