@@ -37,10 +37,6 @@ double total(const Taylor3& x) {
   return std::abs(x.c) + s.linear() + s.quadratic() + s.cubic;
 }
 
-// Random forms over ten symbols, three of them beyond the cubic ones (an arc's x), through products of products
-// (degree six), sums, differences, multiples, products added in place, constants with a remainder, and the cosine and
-// sine of one symbol's forms: each contains the value computed in double at random points, and its magnitude bounds
-// its coefficients.
 // Every coefficient, the remainder and the magnitude of two forms, to the bit.
 void expect_identical(const Taylor3& a, const Taylor3& b) {
   EXPECT_EQ(a.c, b.c);
@@ -54,6 +50,10 @@ void expect_identical(const Taylor3& a, const Taylor3& b) {
   for (int q = 0; q < a.triples(); ++q) EXPECT_EQ(a.t[q], b.t[q]);
 }
 
+// Random forms over ten symbols, three of them beyond the cubic ones (an arc's x), through products of products
+// (degree six), sums, differences, multiples, products added in place, constants with a remainder, and the cosine and
+// sine of one symbol's forms: each contains the value computed in double at random points, and its magnitude bounds
+// its coefficients.
 TEST(ThirdOrderForms, EncloseProductsSumsAndTrigonometryAtRandomPoints) {
   std::mt19937_64 rng(11);
   std::uniform_real_distribution<double> unit(-1.0, 1.0), centre(-2.0, 2.0), radius(0.0, 0.6);
@@ -212,6 +212,9 @@ TEST(ThirdOrderForms, CoordinateAxesGiveTheGeneralRulesFormsToTheBit) {
   const obsgain::Interval qi(0.5, 0.9), ci = cos(qi), si = sin(qi), c2i = cos(2.0 * qi), s2i = sin(2.0 * qi);
   const obsgain::Vec3<obsgain::Interval> vi{obsgain::Interval(-1.0, 0.5), obsgain::Interval(0.25, 2.0),
                                             obsgain::Interval(-3.0, -1.0)};
+  std::array<obsgain::Vec3<obsgain::Interval>, 3> Ii;
+  for (int r = 0; r < 3; ++r)
+    for (int k = 0; k < 3; ++k) Ii[r][k] = k < r ? Ii[k][r] : obsgain::Interval(0.1 * (r - k), 0.2 + 0.3 * r + 0.1 * k);
   for (int axis = 0; axis < 3; ++axis)
     for (const double direction : {1.0, -1.0}) {
       const Eigen::Vector3d a = direction * Eigen::Vector3d::Unit(axis);
@@ -229,8 +232,14 @@ TEST(ThirdOrderForms, CoordinateAxesGiveTheGeneralRulesFormsToTheBit) {
       for (const auto formed : {detail::Entries::all, detail::Entries::upper}) {
         const auto fast = detail::rotated_inertia_about_coordinate_axis(a, c, s, c2, s2, I, formed);
         const auto general = detail::rotated_inertia_about_any_axis(a, c, s, c2, s2, I, formed);
+        const auto fast_i = detail::rotated_inertia_about_coordinate_axis(a, ci, si, c2i, s2i, Ii, formed);
+        const auto general_i = detail::rotated_inertia_about_any_axis(a, ci, si, c2i, s2i, Ii, formed);
         for (int r = 0; r < 3; ++r)
-          for (int k = 0; k < 3; ++k) expect_identical(fast[r][k], general[r][k]);
+          for (int k = 0; k < 3; ++k) {
+            expect_identical(fast[r][k], general[r][k]);
+            EXPECT_EQ(fast_i[r][k].lower(), general_i[r][k].lower());
+            EXPECT_EQ(fast_i[r][k].upper(), general_i[r][k].upper());
+          }
       }
       // And both turn: at ε = 0 the forms are the rotation of v's centres.
       const Eigen::Vector3d centres(v[0].value.c, v[1].value.c, v[2].value.c);
