@@ -207,8 +207,8 @@ Dual<T>& operator*=(Dual<T>& a, const Dual<T>& b) {
 }
 
 // z = base + Σ_m x_m y_m, by the value type's own rule where it has one (second-order forms gather the products' cubic
-// terms across the sum, numerics/taylor.hpp; third-order ones add each product in place, numerics/taylor3.hpp), else
-// term by term. The x_m are the factors of few symbols (a joint's cos q, sin q, cos 2q, sin 2q). Written into z, so
+// terms across the sum, numerics/taylor.hpp; duals of third-order forms add each product in place,
+// measured_sum_of_products below), else term by term. The x_m are the factors of few symbols (a joint's cos q, sin q, cos 2q, sin 2q). Written into z, so
 // that a dual's value is formed in place (a returned form would be copied into it: kilobytes).
 template <class T, std::size_t N>
 void sum_of_products_to(T& z, const T& base, const std::array<const T*, N>& x, const std::array<const T*, N>& y) {
@@ -226,7 +226,7 @@ T sum_of_products(const T& base, const std::array<const T*, N>& x, const std::ar
   return z;
 }
 // sum_of_products below for value types that measure their factors: each value measured once for its value's product
-// and every derivative's, the products added in the order of the general rule (the value's as sum_of_products_into's).
+// and every derivative's, each product added in place, base first and then in the order of the factors.
 template <MeasuresFactors T, std::size_t N>
 void measured_sum_of_products(Dual<T>& r, const Dual<T>& base, const std::array<const T*, N>& xv,
                               const std::array<const T*, N>& yv, const std::array<const Dual<T>*, N>& x,

@@ -283,12 +283,6 @@ inline void multiply_into(Taylor3& z, const Taylor3& x, const Taylor3& y) {
   z = Taylor3(0.0);
   multiply_add_into(z, x, y);
 }
-// base + Σ_m x_m y_m, each product added in place.
-inline void sum_of_products_into(Taylor3& z, const Taylor3& base, const Taylor3* const* x, const Taylor3* const* y,
-                                 int count) {
-  z = base;
-  for (int m = 0; m < count; ++m) multiply_add_into(z, *x[m], *y[m]);
-}
 // sum + s x for a negligible constant s: |s x| <= |s| (magnitude(x) + r_x) into the remainder (taylor.hpp's rule).
 inline void add_small_product(Taylor3& sum, double s, const Taylor3& x) {
   if (x.is_zero() || s == 0.0) return;
