@@ -188,6 +188,15 @@ std::optional<CertifiedBounds> certify_bounds(const Model& model, const BoundRep
   return result;
 }
 
+namespace {
+
+// A bracket whose upper end another proven bound lowered: its attained value, a double evaluation, may lie above
+// the new upper end by its rounding error, which is the whole value where the constant is zero but for rounding (two
+// coaxial joints: C = 0; docs/theory.md, "Lower ends"). The branch and bound clamps its own brackets alike.
+void keep_below_upper_end(BoundBracket& bracket) { bracket.lower = std::min(bracket.lower, bracket.upper); }
+
+}  // namespace
+
 void apply_certified_bounds(BoundReport& report, const CertifiedBounds& certified) {
   report.certified = true;
   report.M0_bracket = certified.M0;
@@ -199,6 +208,7 @@ void apply_certified_bounds(BoundReport& report, const CertifiedBounds& certifie
   // L_joint <= L_paper holds for every q, w, D (docs/theory.md, "The constants"): a proven L_paper bounds L_joint
   // too, and is the smaller of the two when the branch and bound of L_joint ran out of budget on a wide domain.
   if (report.L_paper < report.L_joint_bracket.upper) report.L_joint_bracket.upper = report.L_paper;
+  keep_below_upper_end(report.L_joint_bracket);
   report.L_joint.value = report.L_joint_bracket.upper;
   report.wall_seconds += certified.M0.seconds + certified.B.seconds + certified.L_joint.seconds;
   if (certified.L_scaled) {
@@ -207,6 +217,7 @@ void apply_certified_bounds(BoundReport& report, const CertifiedBounds& certifie
     const Similarity S = similarity(report.scaling);
     const double stretched = (Interval(report.L_joint.value) * Interval(S.stretch) * Interval(S.restore)).upper();
     report.L_scaled_bracket.upper = std::min(report.L_scaled_bracket.upper, stretched);
+    keep_below_upper_end(report.L_scaled_bracket);
     report.L_scaled.value = report.L_scaled_bracket.upper;
     report.wall_seconds += certified.L_scaled->seconds;
   }

@@ -622,6 +622,48 @@ TEST(BranchAndBound, TakesValuesWhereItSplitsAndCountsThem) {
   EXPECT_NEAR(r.work, r.boxes * bound_work + splits * problem.value_work, 1e-15);
 }
 
+// Where another proven bound lowers a bracket's upper end (L_paper for L_joint, the stretched L_joint for L_T), a lower
+// end above it is the double evaluation's rounding: the constant is zero but for it (the Rethink Sawyer's head, two
+// coaxial joints, gave L_T [1.04e-158, 7.30e-160]). The lower end is clamped to the new upper end, as the branch and
+// bound clamps its own.
+TEST(CertifiedBrackets, ALowerEndAboveAnUpperEndLoweredByAnotherBoundIsClamped) {
+  obsgain::BoundReport report;
+  report.scaling = (Eigen::Matrix2d() << 1.0, 0.215918, 0.0, 0.411616).finished();
+  report.F_norm = 0.0;
+  obsgain::CertifiedBounds certified;
+  const auto bracket = [](double lower, double upper) {
+    obsgain::BoundBracket b;
+    b.lower = lower;
+    b.upper = upper;
+    return b;
+  };
+  certified.M0 = bracket(200.0, 200.0);
+  certified.B = bracket(1e-12, 1e-12);
+  certified.L_joint = bracket(5e-9, 5e-9);  // above L_paper = M0 B = 2e-10: L_joint <= L_paper for every q
+  certified.L_scaled = bracket(1.04e-158, 1.04e-158);
+  obsgain::apply_certified_bounds(report, certified);
+  const double L_paper = report.L_paper;
+  EXPECT_NEAR(L_paper, 2e-10, 1e-24);
+  EXPECT_EQ(report.L_joint_bracket.upper, L_paper);
+  EXPECT_EQ(report.L_joint_bracket.lower, L_paper);
+  // The stretched L_joint (cond(T) about 2.6 times 2e-10) is far above L_T's own upper end: that stays, and so does
+  // its lower end.
+  EXPECT_EQ(report.L_scaled_bracket.upper, 1.04e-158);
+  EXPECT_EQ(report.L_scaled_bracket.lower, 1.04e-158);
+  // With L_joint at the rounding level too, the stretched L_joint lowers L_T's upper end below its attained value.
+  certified.L_joint = bracket(2.85e-160, 2.85e-160);
+  obsgain::apply_certified_bounds(report, certified);
+  const double stretched = report.L_scaled_bracket.upper;
+  EXPECT_GT(stretched, 2.85e-160 * 2.5);
+  EXPECT_LT(stretched, 2.85e-160 * 2.7);
+  EXPECT_EQ(report.L_scaled_bracket.lower, stretched);
+  EXPECT_EQ(report.L_scaled.value, stretched);
+  // A bracket already below its new upper end keeps its attained value.
+  certified.L_joint = bracket(1.0e-160, 2.85e-160);
+  obsgain::apply_certified_bounds(report, certified);
+  EXPECT_EQ(report.L_joint_bracket.lower, 1.0e-160);
+}
+
 // The search rules' number (kSearchRules) guards a resumed search against boxes bounded by other rules. Any change to
 // how a box is bounded or split, or to the work it counts, moves these (to the last digits at least): when this
 // fails, raise kSearchRules in bounds/search_journal.hpp with the new values, so that older checkpoints are refused.
