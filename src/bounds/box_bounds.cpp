@@ -271,9 +271,13 @@ BoxCosts box_costs(int n, int symbols, const CountedModel& model) {
   const double forms = ahead * n2 * (3.74e-6 + 0.1376e-6 * terms) * (1.0 + 0.2 * model.centre_offsets);
   // The products' fit included two fine norm bounds (of η and ||E K||), which inverse_norm_upper no longer takes.
   const double products = ahead * (14.45e-6 + 14.45e-9 * n2 * n2 * s) + 2.0 * (gram - refinement);
+  // Since the forty-first round M⁻¹ [J F] takes J's n(n + 1)/2 distinct columns, and E² half its matrix products: the
+  // step, M⁻¹ and the products together, takes 0.79-0.80 of the time it took on six and seven joints (docs/history.md).
+  // A failed M⁻¹ stops before E² and the products.
+  constexpr double symmetric_products = 0.8;
   return {.inertia = 0.75e-6 * n3,
           .forms = forms,
-          .products = products + cubic,
+          .products = symmetric_products * (products + cubic),
           .failed_inverse = 0.3 * products,
           .vertex = ahead * (0.33e-6 + 2.3e-9 * n2 * terms),
           .refinement = refinement,
@@ -380,19 +384,27 @@ LipschitzTerms lipschitz_terms(const Model& model, const BoxForms& d, const std:
   const int n = d.n, blocks = n + 1;
   std::vector<Taylor> F(static_cast<std::size_t>(n * n));
   for (int i = 0; i < n * n; ++i) F[i] = Taylor(model.friction(i / n, i % n));
-  // M⁻¹ [J_1 ... J_n F] in one product: its coefficients are then matrix products n x n by n x n(n + 1).
-  std::vector<Taylor> JF(static_cast<std::size_t>(n * n * blocks));
-  for (int j = 0; j < blocks; ++j) {
-    const std::vector<Taylor> Y = j < n ? unit_jacobian(d, j) : F;
-    for (int i = 0; i < n; ++i)
-      for (int k = 0; k < n; ++k) JF[static_cast<std::size_t>(i * n * blocks + j * n + k)] = Y[static_cast<std::size_t>(i * n + k)];
+  // M⁻¹ [J_1 ... J_n F] in one product: its coefficients are then matrix products. Column k of J_j is column j of
+  // J_k, (J_j)_ik = 2 N_i[j][k], the same forms (box_forms mirrors N), and a product's column depends only on the
+  // same column of its right factor: the product takes the columns with j <= k once, n(n + 1)/2 of the n² (and F's n).
+  const int unique = n * (n + 1) / 2, cols = unique + n;
+  const auto column = [n, unique](int j, int k) {
+    if (j == n) return unique + k;  // F's
+    const int low = std::min(j, k), high = std::max(j, k);
+    return low * n - low * (low - 1) / 2 + (high - low);
+  };
+  std::vector<Taylor> JF(static_cast<std::size_t>(n * cols));
+  for (int i = 0; i < n; ++i) {
+    for (int j = 0; j < n; ++j)
+      for (int k = j; k < n; ++k) JF[static_cast<std::size_t>(i * cols + column(j, k))] = 2.0 * d.N[(i * n + j) * n + k];
+    for (int k = 0; k < n; ++k) JF[static_cast<std::size_t>(i * cols + column(n, k))] = F[static_cast<std::size_t>(i * n + k)];
   }
-  const std::vector<Taylor> X = product(inverse_M.entries, JF, n, n, n * blocks);
+  const std::vector<Taylor> X = product(inverse_M.entries, JF, n, n, cols);
   for (int j = 0; j < blocks; ++j) {
     std::vector<Taylor> block(static_cast<std::size_t>(n * n));
     for (int i = 0; i < n; ++i)
       for (int k = 0; k < n; ++k) {
-        const Taylor& x = X[static_cast<std::size_t>(i * n * blocks + j * n + k)];
+        const Taylor& x = X[static_cast<std::size_t>(i * cols + column(j, k))];
         block[static_cast<std::size_t>(i * n + k)] = diagonal ? (x * scaling->rows(i, i)) * scaling->columns(k, k) : x;
       }
     TaylorMatrix term = taylor_matrix(block.data(), n, n, d.symbols);

@@ -673,24 +673,30 @@ int triple_index(int k, int first, int second) {
 // of a product"). Every product a_imk b_mjp enters one coefficient, of at most 6 · inner of them (a monomial
 // ε_i ε_j ε_l is reached from three slopes, each by both orders): their rounding is within γ_(6 inner)
 // (|A|_1 |B|_2 + |A|_2 |B|_1), and their underflow within 2⁻¹⁰⁷⁴ each. The coefficient matrices sit side by side in
-// one matrix, one allocation.
-Eigen::MatrixXd cubic_upper(const CoefficientMatrices& a, const CoefficientMatrices& b, int symbols) {
+// one matrix, one allocation. `square`: b is a, and a's coefficient matrices are symmetric (E² below), so that
+// A_p B_k = A_p A_k = (A_k A_p)ᵀ: the same products, summed in the same order, transposed.
+Eigen::MatrixXd cubic_upper(const CoefficientMatrices& a, const CoefficientMatrices& b, int symbols, bool square) {
   const auto rows = a.X.rows(), inner = a.X.cols(), cols = b.X.cols();
   const int pairs = pair_count(symbols);
-  Eigen::MatrixXd stacked_b(inner, cols * pairs), stacked_a(rows * pairs, inner);
+  Eigen::MatrixXd stacked_b(inner, cols * pairs), stacked_a(square ? 0 : rows * pairs, inner);
   for (int p = 0; p < pairs; ++p) {
     stacked_b.middleCols(p * cols, cols) = b.X.part(1 + symbols + p);
-    stacked_a.middleRows(p * rows, rows) = a.X.part(1 + symbols + p);
+    if (!square) stacked_a.middleRows(p * rows, rows) = a.X.part(1 + symbols + p);
   }
   const int count = symbols * (symbols + 1) * (symbols + 2) / 6;
   Eigen::MatrixXd monomials = Eigen::MatrixXd::Zero(rows, cols * count);
   Eigen::MatrixXd slope_first, slope_second;
   for (int k = 0; k < symbols; ++k) {
-    slope_first.noalias() = a.X.part(1 + k) * stacked_b;   // A_k B_p, side by side
-    slope_second.noalias() = stacked_a * b.X.part(1 + k);  // A_p B_k, one above the other
-    for (int p = 0; p < pairs; ++p)
-      monomials.middleCols(triple_index(k, kPairs.first[p], kPairs.second[p]) * cols, cols) +=
-          slope_first.middleCols(p * cols, cols) + slope_second.middleRows(p * rows, rows);
+    slope_first.noalias() = a.X.part(1 + k) * stacked_b;  // A_k B_p, side by side
+    if (!square) slope_second.noalias() = stacked_a * b.X.part(1 + k);  // A_p B_k, one above the other
+    for (int p = 0; p < pairs; ++p) {
+      auto monomial = monomials.middleCols(triple_index(k, kPairs.first[p], kPairs.second[p]) * cols, cols);
+      const auto first = slope_first.middleCols(p * cols, cols);
+      if (square)
+        monomial += first + first.transpose();
+      else
+        monomial += first + slope_second.middleRows(p * rows, rows);
+    }
   }
   const UpwardRounding upward;
   Eigen::MatrixXd cubic = gamma(6 * static_cast<int>(inner)) * (a.linear * b.quadratic + a.quadratic * b.linear);
@@ -707,26 +713,52 @@ Eigen::MatrixXd cubic_upper(const CoefficientMatrices& a, const CoefficientMatri
 // of one term of A and one of B, each product in one coefficient only: their rounding, in any order of summation, is
 // within γ_{4 inner} Σ_m total(A)_im total(B)_mj, and their underflow (at most 4 · 8 · 120 products of 2⁻¹⁰⁷⁴ per
 // entry) within the 2⁻¹⁰⁶⁰ that up() adds.
-std::vector<Taylor> product(const std::vector<Taylor>& A, const std::vector<Taylor>& B, int rows, int inner, int cols,
-                            CubicTerms cubic_terms) {
+namespace {
+
+// A B's coefficient matrices up to the second order (product below). `square`: B is A, with symmetric coefficient
+// matrices, so that A_k A_0 = (A_0 A_k)ᵀ and A_l A_k = (A_k A_l)ᵀ, the same products summed in the same order: each
+// coefficient is S + Sᵀ, one matrix product where the general case takes two.
+void second_order_parts(const TaylorMatrix& a, const TaylorMatrix& b, bool square, TaylorMatrix& c) {
+  const int symbols = c.symbols();
+  Eigen::MatrixXd S;
+  // x y + u v into `part`, or added to it; u v is (x y)ᵀ where `square`.
+  const auto both = [&](TaylorMatrix::Part part, const auto& x, const auto& y, const auto& u, const auto& v, bool add) {
+    if (square) {
+      S.noalias() = x * y;
+      if (add)
+        part += S;
+      else
+        part = S;
+      part += S.transpose();
+      return;
+    }
+    if (add)
+      part.noalias() += x * y;
+    else
+      part.noalias() = x * y;
+    part.noalias() += u * v;
+  };
+  c.part(0).noalias() = a.part(0) * b.part(0);
+  for (int k = 0; k < symbols; ++k) both(c.part(1 + k), a.part(0), b.part(1 + k), a.part(1 + k), b.part(0), false);
+  for (int p = 0; p < pair_count(symbols); ++p) {
+    const int k = kPairs.first[p], l = kPairs.second[p], t = 1 + symbols + p;
+    both(c.part(t), a.part(0), b.part(t), a.part(t), b.part(0), false);
+    if (k != l)
+      both(c.part(t), a.part(1 + k), b.part(1 + l), a.part(1 + l), b.part(1 + k), true);
+    else
+      c.part(t).noalias() += a.part(1 + k) * b.part(1 + l);
+  }
+}
+
+std::vector<Taylor> product_of(const std::vector<Taylor>& A, const std::vector<Taylor>& B, int rows, int inner, int cols,
+                               CubicTerms cubic_terms, bool square) {
   const int symbols = std::max(symbols_of(A), symbols_of(B));
   const CoefficientMatrices a = coefficient_matrices(A, rows, inner, symbols), b = coefficient_matrices(B, inner, cols, symbols);
   Eigen::MatrixXd cubic;
-  if (cubic_terms == CubicTerms::by_monomials) cubic = cubic_upper(a, b, symbols);
+  if (cubic_terms == CubicTerms::by_monomials) cubic = cubic_upper(a, b, symbols, square);
   TaylorMatrix c;
   c.shape(rows, cols, symbols);
-  c.part(0).noalias() = a.X.part(0) * b.X.part(0);
-  for (int k = 0; k < symbols; ++k) {
-    c.part(1 + k).noalias() = a.X.part(0) * b.X.part(1 + k);
-    c.part(1 + k).noalias() += a.X.part(1 + k) * b.X.part(0);
-  }
-  for (int p = 0; p < pair_count(symbols); ++p) {
-    const int k = kPairs.first[p], l = kPairs.second[p], t = 1 + symbols + p;
-    c.part(t).noalias() = a.X.part(0) * b.X.part(t);
-    c.part(t).noalias() += a.X.part(t) * b.X.part(0);
-    c.part(t).noalias() += a.X.part(1 + k) * b.X.part(1 + l);
-    if (k != l) c.part(t).noalias() += a.X.part(1 + l) * b.X.part(1 + k);
-  }
+  second_order_parts(a.X, b.X, square, c);
   Eigen::MatrixXd remainder;
   {
     const UpwardRounding upward;  // sums and products of non-negative terms, each rounded up
@@ -737,6 +769,17 @@ std::vector<Taylor> product(const std::vector<Taylor>& A, const std::vector<Tayl
                 gamma(4 * inner) * (a.total * b.total);
   }
   return forms_of(c, remainder);
+}
+
+}  // namespace
+
+std::vector<Taylor> product(const std::vector<Taylor>& A, const std::vector<Taylor>& B, int rows, int inner, int cols,
+                            CubicTerms cubic_terms) {
+  return product_of(A, B, rows, inner, cols, cubic_terms, false);
+}
+
+std::vector<Taylor> symmetric_square(const std::vector<Taylor>& E, int n, CubicTerms cubic_terms) {
+  return product_of(E, E, n, n, n, cubic_terms, true);
 }
 
 double frobenius_upper(const std::vector<Taylor>& X) {
@@ -833,7 +876,12 @@ TaylorInverse inverse(const std::vector<Taylor>& M, int n, int symbols) {
   // Y = K M Kᵀ = K (K M)ᵀ (M symmetric) and M⁻¹ = Kᵀ Y⁻¹ K = c Kᵀ (I + E)⁻¹ K with E = c Y - I for any c > 0. c = 1
   // where ||Y - I|| < 1; on a box where Y varies more, c = 2 / (λ_lo + λ_hi) centres Y's proven spectrum [λ_lo, λ_hi] on
   // 1, and ||E|| < 1 wherever Y is proven positive definite (docs/theory.md, "M⁻¹ over a box").
-  const std::vector<Taylor> Y = left_multiply(K, transpose(left_multiply(K, M, n), n), n);
+  std::vector<Taylor> Y = left_multiply(K, transpose(left_multiply(K, M, n), n), n);
+  // Y is symmetric, and its forms Y_ij and Y_ji enclose the same function over the box, each formed by other sums: the
+  // upper triangle's serve for both, so that E's coefficient matrices are symmetric and E² takes half the matrix
+  // products (product_of's `square`).
+  for (int i = 0; i < n; ++i)
+    for (int j = i + 1; j < n; ++j) Y[static_cast<std::size_t>(j * n + i)] = Y[static_cast<std::size_t>(i * n + j)];
   const auto shifted = [&](double c) {
     std::vector<Taylor> E(Y.size());
     for (std::size_t i = 0; i < Y.size(); ++i) E[i] = c == 1.0 ? Y[i] : c * Y[i];
@@ -852,7 +900,7 @@ TaylorInverse inverse(const std::vector<Taylor>& M, int n, int symbols) {
     if (!(eta < 1.0)) return result;
   }
   // c Kᵀ (I - E + E²) K.
-  const std::vector<Taylor> E2 = product(E, E, n, n, n, CubicTerms::by_monomials);
+  const std::vector<Taylor> E2 = symmetric_square(E, n, CubicTerms::by_monomials);
   std::vector<Taylor> Z(E.size());
   for (std::size_t i = 0; i < E.size(); ++i) Z[i] = E2[i] - E[i];
   for (int i = 0; i < n; ++i) Z[i * n + i] = Z[i * n + i] + 1.0;

@@ -162,6 +162,10 @@ enum class CubicTerms { by_sizes, by_monomials };
 // Row-major products of forms: (rows x inner) by (inner x cols), rounding included in the forms.
 std::vector<Taylor> product(const std::vector<Taylor>& A, const std::vector<Taylor>& B, int rows, int inner, int cols,
                             CubicTerms cubic_terms = CubicTerms::by_sizes);
+// E E for n x n forms whose coefficient matrices are symmetric (E_ij and E_ji the same forms): each coefficient of the
+// product is S + Sᵀ for one matrix product S, the same products summed in the same order as `product` sums them, so
+// the same forms for half the matrix products.
+std::vector<Taylor> symmetric_square(const std::vector<Taylor>& E, int n, CubicTerms cubic_terms = CubicTerms::by_sizes);
 
 // An upper bound of max_ε ||X(ε)||_F for row-major forms: sqrt Σ (|c| + radius)², rounded up.
 double frobenius_upper(const std::vector<Taylor>& X);
