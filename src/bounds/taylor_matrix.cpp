@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 
 namespace obsgain {
 
@@ -704,17 +705,6 @@ Eigen::MatrixXd cubic_upper(const CoefficientMatrices& a, const CoefficientMatri
   return cubic.array() + std::ldexp(6.0 * static_cast<double>(inner) * count, -1074);
 }
 
-}  // namespace
-
-// The coefficients of every entry at once, as matrix products: C_0 = A_0 B_0, C_k = A_0 B_k + A_k B_0, C_kl = A_0 B_kl +
-// A_kl B_0 + A_k B_l + A_l B_k (A_k B_k on the diagonal); the cubic terms by the entries' sizes or monomial by monomial
-// (cubic_upper), the quartic terms and every product with a remainder as one form's product bounds them (operator*), by
-// products of the entries' sizes rounded upward. Each coefficient of an entry is a sum of at most 4 · inner products
-// of one term of A and one of B, each product in one coefficient only: their rounding, in any order of summation, is
-// within γ_{4 inner} Σ_m total(A)_im total(B)_mj, and their underflow (at most 4 · 8 · 120 products of 2⁻¹⁰⁷⁴ per
-// entry) within the 2⁻¹⁰⁶⁰ that up() adds.
-namespace {
-
 // A B's coefficient matrices up to the second order (product below). `square`: B is A, with symmetric coefficient
 // matrices, so that A_k A_0 = (A_0 A_k)ᵀ and A_l A_k = (A_k A_l)ᵀ, the same products summed in the same order: each
 // coefficient is S + Sᵀ, one matrix product where the general case takes two.
@@ -750,6 +740,13 @@ void second_order_parts(const TaylorMatrix& a, const TaylorMatrix& b, bool squar
   }
 }
 
+// The coefficients of every entry at once, as matrix products: C_0 = A_0 B_0, C_k = A_0 B_k + A_k B_0, C_kl = A_0 B_kl +
+// A_kl B_0 + A_k B_l + A_l B_k (A_k B_k on the diagonal); the cubic terms by the entries' sizes or monomial by monomial
+// (cubic_upper), the quartic terms and every product with a remainder as one form's product bounds them (operator*), by
+// products of the entries' sizes rounded upward. Each coefficient of an entry is a sum of at most 4 · inner products
+// of one term of A and one of B, each product in one coefficient only: their rounding, in any order of summation, is
+// within γ_{4 inner} Σ_m total(A)_im total(B)_mj, and their underflow (at most 4 · 8 · 120 products of 2⁻¹⁰⁷⁴ per
+// entry) within the 2⁻¹⁰⁶⁰ that up() adds.
 std::vector<Taylor> product_of(const std::vector<Taylor>& A, const std::vector<Taylor>& B, int rows, int inner, int cols,
                                CubicTerms cubic_terms, bool square) {
   const int symbols = std::max(symbols_of(A), symbols_of(B));
@@ -779,6 +776,11 @@ std::vector<Taylor> product(const std::vector<Taylor>& A, const std::vector<Tayl
 }
 
 std::vector<Taylor> symmetric_square(const std::vector<Taylor>& E, int n, CubicTerms cubic_terms) {
+  // S + Sᵀ is E E only for symmetric coefficient matrices: anything else would be an unsound product.
+  const TaylorMatrix X = taylor_matrix(E.data(), n, n, symbols_of(E));
+  for (int t = 0; t < X.parts(); ++t)
+    if (!(X.part(t).array() == X.part(t).transpose().array()).all())
+      throw std::logic_error("symmetric_square: the forms' coefficient matrices are not symmetric");
   return product_of(E, E, n, n, n, cubic_terms, true);
 }
 

@@ -22,6 +22,7 @@
 #include <cstdint>
 #include <numeric>
 #include <random>
+#include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
@@ -608,6 +609,10 @@ TEST(TaylorMatrices, SymmetricSquaresAndDistinctColumnsGiveTheProductsFormsToThe
         const std::vector<obsgain::Taylor> general = obsgain::product(E, E, n, n, n, cubic);
         for (std::size_t e = 0; e < E.size(); ++e) expect_same(square, e, general, e);
       }
+      // S + Sᵀ is E E only for symmetric coefficient matrices: one coefficient off, and it refuses.
+      std::vector<obsgain::Taylor> skew = E;
+      skew[1].a[symbols - 1] += 1e-9;
+      EXPECT_THROW(obsgain::symmetric_square(skew, n), std::logic_error);
       // [J_1 ... J_n F]: n(n + 1) columns, (j, k) and (k, j) the same forms for j, k < n, against the n(n + 3)/2
       // distinct ones.
       std::vector<obsgain::Taylor> A(static_cast<std::size_t>(n * n));
