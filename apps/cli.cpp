@@ -7,12 +7,15 @@
 
 #include <fmt/format.h>
 
+#include <cerrno>
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <iterator>
+#include <fcntl.h>
 #include <unistd.h>
 
 namespace obsgain {
@@ -405,6 +408,15 @@ void require_writable(const std::vector<std::pair<std::string, std::string>>& ou
       throw InputError(named + ": its directory '" + parent.string() + "' does not exist");
     if (access(parent.c_str(), W_OK) != 0)
       throw InputError(named + ": its directory '" + parent.string() + "' is not writable");
+    // A directory can pass access() and still refuse the file: as root every permission check passes, and a
+    // pseudo-file system such as /proc still refuses. Opening the file, created and removed again where it did not
+    // exist, is the test. A device or a pipe (/dev/null, a FIFO) is written as it is, when the work is done.
+    const bool existed = fs::exists(path, error);
+    if (existed && !fs::is_regular_file(path, error)) continue;
+    const int descriptor = ::open(path.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
+    if (descriptor < 0) throw InputError(named + " cannot be written: " + std::strerror(errno));
+    ::close(descriptor);
+    if (!existed) fs::remove(path, error);
   }
 }
 

@@ -442,6 +442,9 @@ TEST(OutputApps, AFileThatCannotBeWrittenIsRefusedBeforeAnyWork) {
                  "--json = '/nonexistent/dir/design.json': its directory '/nonexistent/dir' does not exist");
   expect_refused(arm6 + "--export-header /nonexistent/gains.hpp", "--export-header = '/nonexistent/gains.hpp'");
   expect_refused(arm6 + "--export-ros2 " + ::testing::TempDir(), "is a directory, not a file");
+  // /proc takes no new file, though as root its directory passes every permission check (as another user it is named
+  // not writable).
+  expect_refused(arm6 + "--json /proc/obsgain_design.json", "--json = '/proc/obsgain_design.json'");
   expect_refused(arm6 + "--export-observer /nonexistent/observer.txt",
                  "--export-observer = '/nonexistent/observer.txt': its directory '/nonexistent' does not exist");
   // The checkpoint is opened with the request (in the library, the same message from Python).
