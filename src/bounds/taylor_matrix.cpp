@@ -751,6 +751,10 @@ std::vector<Taylor> product_of(const std::vector<Taylor>& A, const std::vector<T
                                CubicTerms cubic_terms, bool square) {
   const int symbols = std::max(symbols_of(A), symbols_of(B));
   const CoefficientMatrices a = coefficient_matrices(A, rows, inner, symbols), b = coefficient_matrices(B, inner, cols, symbols);
+  // S + Sᵀ is A A only for symmetric coefficient matrices: anything else would be an unsound product.
+  for (int t = 0; square && t < a.X.parts(); ++t)
+    if (!(a.X.part(t).array() == a.X.part(t).transpose().array()).all())
+      throw std::logic_error("symmetric_square: the forms' coefficient matrices are not symmetric");
   Eigen::MatrixXd cubic;
   if (cubic_terms == CubicTerms::by_monomials) cubic = cubic_upper(a, b, symbols, square);
   TaylorMatrix c;
@@ -776,11 +780,6 @@ std::vector<Taylor> product(const std::vector<Taylor>& A, const std::vector<Tayl
 }
 
 std::vector<Taylor> symmetric_square(const std::vector<Taylor>& E, int n, CubicTerms cubic_terms) {
-  // S + Sᵀ is E E only for symmetric coefficient matrices: anything else would be an unsound product.
-  const TaylorMatrix X = taylor_matrix(E.data(), n, n, symbols_of(E));
-  for (int t = 0; t < X.parts(); ++t)
-    if (!(X.part(t).array() == X.part(t).transpose().array()).all())
-      throw std::logic_error("symmetric_square: the forms' coefficient matrices are not symmetric");
   return product_of(E, E, n, n, n, cubic_terms, true);
 }
 

@@ -208,8 +208,9 @@ Dual<T>& operator*=(Dual<T>& a, const Dual<T>& b) {
 
 // z = base + Σ_m x_m y_m, by the value type's own rule where it has one (second-order forms gather the products' cubic
 // terms across the sum, numerics/taylor.hpp; duals of third-order forms add each product in place,
-// measured_sum_of_products below), else term by term. The x_m are the factors of few symbols (a joint's cos q, sin q, cos 2q, sin 2q). Written into z, so
-// that a dual's value is formed in place (a returned form would be copied into it: kilobytes).
+// measured_sum_of_products below), else term by term. The x_m are the factors of few symbols (a joint's cos q, sin q,
+// cos 2q, sin 2q). Written into z, so that a dual's value is formed in place (a returned form would be copied into it:
+// kilobytes).
 template <class T, std::size_t N>
 void sum_of_products_to(T& z, const T& base, const std::array<const T*, N>& x, const std::array<const T*, N>& y) {
   if constexpr (requires { sum_of_products_into(z, base, x.data(), y.data(), 1); }) {
