@@ -272,14 +272,19 @@ BoxCosts box_costs(int n, int symbols, const CountedModel& model) {
   // The products' fit included two fine norm bounds (of η and ||E K||), which inverse_norm_upper no longer takes.
   const double products = ahead * (14.45e-6 + 14.45e-9 * n2 * n2 * s) + 2.0 * (gram - refinement);
   // Since the forty-first round M⁻¹ [J F] takes J's n(n + 1)/2 distinct columns, and E² half its matrix products: the
-  // step, M⁻¹ and the products together, takes 0.79-0.80 of the time it took on six and seven joints (docs/history.md).
+  // step, M⁻¹ and the products together, takes 0.79-0.80 of the time it took on six and seven joints. Since the forty-
+  // second, K's products take one matrix product on an even n² and M⁻¹'s series skips the eigensolvers of a norm bound
+  // it can tell from below will not be the smaller: the step takes 0.81-0.94 of the forty-first's time (a mean of
+  // 0.88). A vertex's combination is formed by halves: the vertex step takes 0.50-0.64 of its instructions without
+  // friction (where it forms no envelope either) and 0.85-0.92 with it (docs/history.md, the forty-second round).
   // A failed M⁻¹ stops before E² and the products.
-  constexpr double symmetric_products = 0.8;
+  constexpr double symmetric_products = 0.8 * 0.88;
+  const double vertex_halves = model.frictionless ? 0.6 : 0.9;
   return {.inertia = 0.75e-6 * n3,
           .forms = forms,
           .products = symmetric_products * (products + cubic),
           .failed_inverse = 0.3 * products,
-          .vertex = ahead * (0.33e-6 + 2.3e-9 * n2 * terms),
+          .vertex = vertex_halves * ahead * (0.33e-6 + 2.3e-9 * n2 * terms),
           .refinement = refinement,
           .gram = gram,
           .choice = ahead * (0.026e-6 + 2.45e-9 * n1 * terms),
@@ -476,8 +481,9 @@ double patterns_upper(const TaylorMatrix& A, double A_frobenius, const TaylorMat
 // One vertex w for every pattern at once: Aw = A(w) over the box and the envelope [Aw + R, R]ᵀ, whose norm bounds
 // ||Aw D + R|| for every D (without friction Aw itself: D = I is then the maximum).
 struct VertexEnvelope {
-  TaylorMatrix Aw, envelope;
+  TaylorMatrix Aw, envelope;  // envelope: not formed without friction, where Aw is its own
   double Aw_frobenius = 0.0;
+  const TaylorMatrix& bounded() const { return envelope.rows() > 0 ? envelope : Aw; }
 };
 
 // Velocity components whose terms are this small against the largest (V_j ||A_j||_F) are carried as symbols rather
@@ -535,13 +541,14 @@ double choices_upper(const LipschitzTerms& t, const BoxForms& d, const VelocityC
   // R over the vertices' symbols: the box's and one per velocity component carried as a symbol.
   const TaylorMatrix R = with_symbols(t.R, t.R.symbols() + static_cast<int>(symbolic.terms.size()));
   const double R_frobenius = R.frobenius_upper();
-  for (const Eigen::VectorXd& w : ws) {
+  for (TaylorMatrix& Aw : vertex_combinations(t.A, ws, symbolic, A_frobenius)) {
     VertexEnvelope e;
-    e.Aw = linear_combination(t.A, w, symbolic, A_frobenius);
+    e.Aw = std::move(Aw);
     e.Aw_frobenius = e.Aw.frobenius_upper();
     weigh_sides(e.Aw, d, weights);
-    e.envelope = v.counted.frictionless ? e.Aw : pattern_envelope(e.Aw, R, e.Aw_frobenius + R_frobenius);
-    const double centre = e.envelope.centre().norm(), cheap = e.envelope.frobenius_upper();
+    if (!v.counted.frictionless) e.envelope = pattern_envelope(e.Aw, R, e.Aw_frobenius + R_frobenius);
+    const double centre = e.bounded().centre().norm();
+    const double cheap = v.counted.frictionless ? e.Aw_frobenius : e.envelope.frobenius_upper();
     choices.push_back({cheap, cheap - centre, static_cast<unsigned>(vertices.size()), 0u});
     vertices.push_back(std::move(e));
   }
@@ -552,11 +559,11 @@ double choices_upper(const LipschitzTerms& t, const BoxForms& d, const VelocityC
   const double R_centre = spectral_norm(t.R.centre());
   const double upper = refine_choices(choices, lower, [&](const Choice& choice, double floor) {
     const VertexEnvelope& e = vertices[choice.vertex];
-    const TaylorMatrix::ConstPart C = e.envelope.centre();
+    const TaylorMatrix::ConstPart C = e.bounded().centre();
     const double size = C.norm();
     if (centre_norm_below(C.transpose() * C, floor - choice.variation, size * size)) return floor;
     ++full;
-    const double fine = norm_upper(e.envelope, floor);
+    const double fine = norm_upper(e.bounded(), floor);
     if (v.counted.frictionless || fine <= floor) return fine;
     const double sigma = spectral_norm(C);
     const double added = R_centre * R_centre / (2.0 * spectral_norm(e.Aw.centre() + t.R.centre()));

@@ -163,12 +163,21 @@ Eigen::MatrixXd combined_entry_remainders(const std::vector<TaylorMatrix>& terms
   return E;
 }
 
+// γ_m Σ_j |w_j| ||X_j||_F, rounded up: a bound of the rounding of every entry's sum Σ_j w_j x_j (m terms, in any order
+// of summation), `term_frobenius` the terms' ||X_j||_F.
+double sum_rounding(const Eigen::VectorXd& weights, const std::vector<double>& term_frobenius) {
+  double rounding = 0.0;
+  for (std::size_t j = 0; j < term_frobenius.size(); ++j) {
+    const double w = weights(static_cast<Eigen::Index>(j));
+    if (w != 0.0) rounding += std::abs(w) * term_frobenius[j];
+  }
+  return up(gamma(static_cast<int>(term_frobenius.size())) * rounding);
+}
+
 // The coefficients of Σ_j w_j X_j over `symbols` symbols (at least the terms', the others not entering it), in X (its
-// remainder not set); returns the bound of the sums' rounding.
-double sum_coefficients(const std::vector<TaylorMatrix>& terms, const Eigen::VectorXd& weights,
-                        const std::vector<double>& term_frobenius, int symbols, TaylorMatrix& X) {
+// remainder not set).
+void sum_coefficients(const std::vector<TaylorMatrix>& terms, const Eigen::VectorXd& weights, int symbols, TaylorMatrix& X) {
   X.resize(terms[0].rows(), terms[0].cols(), symbols);
-  double rounding = 0.0;  // Σ_j |w_j| ||X_j||_F, times γ: the rounding of every entry's sum
   for (std::size_t j = 0; j < terms.size(); ++j) {
     const double w = weights(static_cast<Eigen::Index>(j));
     if (w == 0.0) continue;
@@ -178,9 +187,7 @@ double sum_coefficients(const std::vector<TaylorMatrix>& terms, const Eigen::Vec
     const int s = T.symbols();
     X.parts(0, 1 + s) += w * T.parts(0, 1 + s);
     X.parts(1 + symbols, T.curvature_count()) += w * T.parts(1 + s, T.curvature_count());
-    rounding += std::abs(w) * term_frobenius[j];
   }
-  return up(gamma(static_cast<int>(terms.size())) * rounding);
 }
 
 // Σ_j |w_j| ||Δ_j||_F, rounded up: the combination's remainder where its terms' entries' remainders are not known.
@@ -195,7 +202,8 @@ double summed_remainders(const std::vector<TaylorMatrix>& terms, const Eigen::Ve
 TaylorMatrix linear_combination(const std::vector<TaylorMatrix>& terms, const Eigen::VectorXd& weights,
                                 const std::vector<double>& term_frobenius) {
   TaylorMatrix X;
-  const double rounding = sum_coefficients(terms, weights, term_frobenius, terms[0].symbols(), X);
+  sum_coefficients(terms, weights, terms[0].symbols(), X);
+  const double rounding = sum_rounding(weights, term_frobenius);
   const Eigen::MatrixXd E = combined_entry_remainders(terms, weights);
   X.remainder = up((E.size() ? frobenius(E) : summed_remainders(terms, weights)) + rounding);
   return X;
@@ -258,24 +266,39 @@ SymbolicWeights symbolic_weights(const std::vector<TaylorMatrix>& terms, const s
   return s;
 }
 
-TaylorMatrix linear_combination(const std::vector<TaylorMatrix>& terms, const Eigen::VectorXd& weights,
-                                const SymbolicWeights& symbolic, const std::vector<double>& term_frobenius) {
-  if (symbolic.terms.empty()) return linear_combination(terms, weights, term_frobenius);
+namespace {
+
+// The weights with the free ones (carried as symbols) set to zero.
+Eigen::VectorXd fixed_weights(const Eigen::VectorXd& weights, const SymbolicWeights& symbolic) {
   Eigen::VectorXd fixed = weights;
   for (const std::size_t j : symbolic.terms) fixed(static_cast<Eigen::Index>(j)) = 0.0;
-  TaylorMatrix X;
-  const int s = terms[0].symbols(), all = s + static_cast<int>(symbolic.terms.size());
-  double rounding = sum_coefficients(terms, fixed, term_frobenius, all, X);
-  // Δ and the third-order terms V ω Σ_p H_p ε_p entry by entry where the entries' remainders are known (then
-  // |Σ_p H_p ε_p| <= Σ_p |H_p|), else in norm.
-  Eigen::MatrixXd E = combined_entry_remainders(terms, fixed);
-  double remainder = E.size() ? 0.0 : summed_remainders(terms, fixed);
+  return fixed;
+}
+
+// The free terms' parts of the combination, V_j ω_j X_j: its centre a slope of ω_j, its slopes curvatures with ω_j.
+// X's coefficients there are zero before: the fixed terms have none.
+void set_free_parts(const std::vector<TaylorMatrix>& terms, const Eigen::VectorXd& weights, const SymbolicWeights& symbolic,
+                    TaylorMatrix& X) {
+  const int s = terms[0].symbols();
   for (std::size_t r = 0; r < symbolic.terms.size(); ++r) {
     const TaylorMatrix& T = terms[symbolic.terms[r]];
     const double V = std::abs(weights(static_cast<Eigen::Index>(symbolic.terms[r])));
     const int omega = s + static_cast<int>(r);
     X.slope(omega) = V * T.centre();
     for (int k = 0; k < s; ++k) X.curvature(pair_index(k, omega)) = V * T.slope(k);
+  }
+}
+
+// The combination's remainder: Δ and the free terms' third-order terms V ω Σ_p H_p ε_p entry by entry where the
+// entries' remainders are known (then |Σ_p H_p ε_p| <= Σ_p |H_p|), else in norm, and the sums' and products'
+// rounding (`rounding`: the fixed terms' sums', sum_rounding). It depends on the |w_j| only.
+double combination_remainder(const std::vector<TaylorMatrix>& terms, const Eigen::VectorXd& weights,
+                             const SymbolicWeights& symbolic, const std::vector<double>& term_frobenius, double rounding) {
+  const Eigen::VectorXd fixed = fixed_weights(weights, symbolic);
+  Eigen::MatrixXd E = combined_entry_remainders(terms, fixed);
+  double remainder = E.size() ? 0.0 : summed_remainders(terms, fixed);
+  for (std::size_t r = 0; r < symbolic.terms.size(); ++r) {
+    const double V = std::abs(weights(static_cast<Eigen::Index>(symbolic.terms[r])));
     // The products V x rounded within 2⁻⁵² of their moduli: at most 2⁻⁵² V ||X_j||_F over the centre and slopes.
     rounding += kTaylorRoundoff * V * term_frobenius[symbolic.terms[r]];
     const UpwardRounding upward;  // sums and products of non-negative terms
@@ -284,8 +307,85 @@ TaylorMatrix linear_combination(const std::vector<TaylorMatrix>& terms, const Ei
     else
       remainder += V * symbolic.third_order_norm[r];
   }
-  X.remainder = up((E.size() ? frobenius(E) : remainder) + rounding);
+  return up((E.size() ? frobenius(E) : remainder) + rounding);
+}
+
+}  // namespace
+
+TaylorMatrix linear_combination(const std::vector<TaylorMatrix>& terms, const Eigen::VectorXd& weights,
+                                const SymbolicWeights& symbolic, const std::vector<double>& term_frobenius) {
+  if (symbolic.terms.empty()) return linear_combination(terms, weights, term_frobenius);
+  TaylorMatrix X;
+  const int all = terms[0].symbols() + static_cast<int>(symbolic.terms.size());
+  const Eigen::VectorXd fixed = fixed_weights(weights, symbolic);
+  sum_coefficients(terms, fixed, all, X);
+  set_free_parts(terms, weights, symbolic, X);
+  X.remainder = combination_remainder(terms, weights, symbolic, term_frobenius, sum_rounding(fixed, term_frobenius));
   return X;
+}
+
+namespace {
+
+// The sums of one half of the fixed terms over `symbols` symbols, one per sign pattern the vertices give them, and
+// which of them each vertex takes. The patterns in the order the vertices first show them.
+struct HalfSums {
+  std::vector<TaylorMatrix> sums;
+  std::vector<std::size_t> of_vertex;
+};
+
+HalfSums half_sums(const std::vector<TaylorMatrix>& terms, const std::vector<Eigen::VectorXd>& vertices,
+                   const std::vector<std::size_t>& half, int symbols) {
+  HalfSums h;
+  std::vector<unsigned> patterns;
+  for (const Eigen::VectorXd& w : vertices) {
+    unsigned pattern = 0;
+    for (std::size_t e = 0; e < half.size(); ++e)
+      if (w(static_cast<Eigen::Index>(half[e])) > 0.0) pattern |= 1u << e;
+    const auto found = std::find(patterns.begin(), patterns.end(), pattern);
+    h.of_vertex.push_back(static_cast<std::size_t>(found - patterns.begin()));
+    if (found != patterns.end()) continue;
+    patterns.push_back(pattern);
+    Eigen::VectorXd weights = Eigen::VectorXd::Zero(w.size());
+    for (const std::size_t j : half) weights(static_cast<Eigen::Index>(j)) = w(static_cast<Eigen::Index>(j));
+    h.sums.emplace_back();
+    sum_coefficients(terms, weights, symbols, h.sums.back());
+  }
+  return h;
+}
+
+}  // namespace
+
+std::vector<TaylorMatrix> vertex_combinations(const std::vector<TaylorMatrix>& terms,
+                                              const std::vector<Eigen::VectorXd>& vertices, const SymbolicWeights& symbolic,
+                                              const std::vector<double>& frobenius) {
+  if (vertices.empty()) return {};
+  for (const Eigen::VectorXd& w : vertices)
+    if (!(w.cwiseAbs().array() == vertices.front().cwiseAbs().array()).all())
+      throw std::logic_error("vertex_combinations: the weights' moduli differ between vertices");
+  std::vector<bool> free(terms.size(), false);
+  for (const std::size_t j : symbolic.terms) free[j] = true;
+  std::vector<std::size_t> fixed;
+  for (std::size_t j = 0; j < terms.size(); ++j)
+    if (!free[j]) fixed.push_back(j);
+  const auto middle = fixed.begin() + static_cast<std::ptrdiff_t>((fixed.size() + 1) / 2);
+  const int symbols = terms[0].symbols() + static_cast<int>(symbolic.terms.size());
+  HalfSums lead = half_sums(terms, vertices, {fixed.begin(), middle}, symbols);
+  const HalfSums rest = half_sums(terms, vertices, {middle, fixed.end()}, symbols);
+  // The free terms' parts, the same at every vertex, ride on the first half's sums, where they add to zeros.
+  for (TaylorMatrix& sum : lead.sums) set_free_parts(terms, vertices.front(), symbolic, sum);
+  // Σ_j w_j X_j summed by halves is within the same γ_m Σ_j |w_j| ||X_j||_F (sum_rounding: any order of summation), and
+  // the free parts' sums are exact: the remainder is one combination's, the same at every vertex.
+  const double rounding = sum_rounding(fixed_weights(vertices.front(), symbolic), frobenius);
+  const double remainder = combination_remainder(terms, vertices.front(), symbolic, frobenius, rounding);
+  std::vector<TaylorMatrix> combinations(vertices.size());
+  for (std::size_t v = 0; v < vertices.size(); ++v) {
+    TaylorMatrix& X = combinations[v];
+    const TaylorMatrix& a = lead.sums[lead.of_vertex[v]];
+    X.shape(a.rows(), a.cols(), symbols);
+    X.parts(0, X.parts()) = a.parts(0, a.parts()) + rest.sums[rest.of_vertex[v]].parts(0, a.parts());
+    X.remainder = remainder;
+  }
+  return combinations;
 }
 
 TaylorMatrix with_symbols(const TaylorMatrix& X, int symbols) {
@@ -812,7 +912,15 @@ std::vector<Taylor> left_multiply(const Eigen::MatrixXd& K, const std::vector<Ta
   const CoefficientMatrices x = coefficient_matrices(X, static_cast<int>(K.cols()), n, symbols);
   TaylorMatrix y;
   y.shape(K.rows(), n, symbols);
-  for (int t = 0; t < y.parts(); ++t) y.part(t).noalias() = K * x.X.part(t);
+  if ((K.rows() * n) % 2 == 0 && (K.cols() * n) % 2 == 0) {
+    // No padding between the parts (TaylorMatrix): side by side they are one matrix, and K times it one product.
+    const auto from = x.X.parts(0, x.X.parts());
+    auto to = y.parts(0, y.parts());
+    Eigen::Map<Eigen::MatrixXd>(to.data(), K.rows(), n * y.parts()).noalias() =
+        K * Eigen::Map<const Eigen::MatrixXd>(from.data(), K.cols(), n * y.parts());
+  } else {
+    for (int t = 0; t < y.parts(); ++t) y.part(t).noalias() = K * x.X.part(t);
+  }
   Eigen::MatrixXd remainder;
   {
     const UpwardRounding upward;
@@ -827,8 +935,8 @@ std::vector<Taylor> left_multiply(const Eigen::MatrixXd& K, const std::vector<Ta
 // bound follows the slopes' own norms instead (arm7, a box of ±0.15 rad at L_joint's maximiser: ||E|| sampled 0.135,
 // norm_upper 0.252, this 0.205; docs/theory.md, "M⁻¹ over a box"). The eigensolvers run in the default rounding; the
 // few sums before the upward ones are within up()'s inflation.
-double termwise_norm_upper(const TaylorMatrix& X) {
-  double terms = spectral_norm_upper(X.centre());
+double termwise_norm_upper(const TaylorMatrix& X, double centre) {
+  double terms = centre;
   for (int k = 0; k < X.symbols(); ++k) terms += spectral_norm_upper(X.slope(k));
   const UpwardRounding upward;
   for (int p = 0; p < X.curvature_count(); ++p) terms += frobenius(X.curvature(p));
@@ -840,10 +948,9 @@ double termwise_norm_upper(const TaylorMatrix& X) {
 // column of its e entries). Where the parts point in different directions, as E's do over a
 // box wide in many joints, this is near the root of the sum of their squares where the term-by-term bound adds them
 // (the iiwa 14's worst open box at the end of the fifteenth round's search: ||E|| sampled 0.28, proven 0.58 term by
-// term and 0.41 from the Gram matrix; docs/theory.md, "M⁻¹ over a box").
-double gram_norm_upper(const TaylorMatrix& X) {
+// term and 0.41 from the Gram matrix; docs/theory.md, "M⁻¹ over a box"). `centre`: ||C||₂, bounded above.
+double gram_norm_upper(const TaylorMatrix& X, double centre) {
   const int parts = X.parts() - 1;
-  const double centre = spectral_norm_upper(X.centre());  // in the default rounding, as its eigensolver expects
   Eigen::MatrixXd P(X.rows() * X.cols(), parts);
   for (int t = 0; t < parts; ++t) P.col(t) = X.part(t + 1).reshaped();
   double sizes = 0.0;
@@ -856,10 +963,30 @@ double gram_norm_upper(const TaylorMatrix& X) {
   return up(centre + variation + X.remainder);
 }
 
-// The smaller of the two proven bounds of ||X(ε)||₂ over the box, for the zero-centred E and Kᵀ E (scaled). norm_upper
-// is not taken: on 6- and 7-joint arms it was never the smallest in the searches' first 20,000-46,000 calls (arm3: 14
-// of 3,401, by at most 13 %), and it cost a fine norm bound each (docs/theory.md, "M⁻¹ over a box").
-double inverse_norm_upper(const TaylorMatrix& X) { return std::min(termwise_norm_upper(X), gram_norm_upper(X)); }
+// A value termwise_norm_upper(X, ·) cannot go below: each slope's ||G_k||₂ is at least ||G_k||_F / √min(rows, cols) and
+// its largest column's norm, and the rest is termwise's own sum (in the default rounding, which rounds no sum above the
+// upward one, and shrunk by 1e-12 for the norms' own rounding).
+double termwise_lower(const TaylorMatrix& X, double centre) {
+  double terms = centre + X.remainder;
+  const double root_rank = std::sqrt(static_cast<double>(std::min(X.rows(), X.cols())));
+  for (int k = 0; k < X.symbols(); ++k)
+    terms += std::max(X.slope(k).norm() / root_rank, X.slope(k).colwise().norm().maxCoeff());
+  for (int p = 0; p < X.curvature_count(); ++p) terms += X.curvature(p).norm();
+  return terms * (1.0 - 1e-12);
+}
+
+// The smaller of the two proven bounds of ||X(ε)||₂ over the box, for the zero-centred E and Kᵀ E (scaled). On six-
+// and seven-joint arms the Gram bound was the smaller in every one of 120,000 calls but 8 (arm6, by at most 6 %), on
+// two and three joints the term-by-term bound in about half: its eigensolvers run only where a bound of its value from
+// below does not already exceed the Gram bound, and the smaller is the same. norm_upper is not taken: on 6- and
+// 7-joint arms it was never the smallest in the searches' first 20,000-46,000 calls (arm3: 14 of 3,401, by at most 13 %),
+// and it cost a fine norm bound each (docs/theory.md, "M⁻¹ over a box").
+double inverse_norm_upper(const TaylorMatrix& X) {
+  const double centre = spectral_norm_upper(X.centre());  // in the default rounding, as its eigensolver expects
+  const double gram = gram_norm_upper(X, centre);
+  if (termwise_lower(X, centre) >= gram) return gram;
+  return std::min(termwise_norm_upper(X, centre), gram);
+}
 
 std::vector<Taylor> transpose(const std::vector<Taylor>& X, int n) {
   std::vector<Taylor> Y(X.size());

@@ -482,6 +482,47 @@ TEST(TaylorMatrices, SymbolicWeightsCoverEveryWeightInTheirBox) {
   }
 }
 
+// The combinations at a box's vertices by halves are the combinations one by one, summed in another order: every
+// coefficient of both within the rounding the remainder carries (γ_m Σ_j |w_j| ||X_j||_F) of the exact sum, the same
+// remainder, and on vertices of 1 to 6 fixed weights, with and without weights carried as symbols. Weights of other
+// moduli are refused.
+TEST(TaylorMatrices, VertexCombinationsByHalvesAreTheCombinationsOneByOne) {
+  std::mt19937_64 rng(31);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  for (int trial = 0; trial < 24; ++trial) {
+    const int n = 2 + trial % 5, terms = 1 + trial % 6, symbols = 2 + trial % 3;
+    std::vector<obsgain::TaylorMatrix> X;
+    for (int j = 0; j < terms; ++j) X.push_back(random_taylor_matrix(n, n, symbols, 1.0, rng));
+    Eigen::VectorXd V(terms);
+    std::vector<bool> free(terms);
+    for (int j = 0; j < terms; ++j) {
+      V(j) = 1.0 + unit(rng);
+      free[j] = trial % 2 == 1 && j % 3 == 1;
+    }
+    std::vector<Eigen::VectorXd> vertices;
+    for (unsigned bits = 0; bits < (1u << terms); ++bits)
+      vertices.push_back(V.array() * Eigen::ArrayXd::NullaryExpr(terms, [&](Eigen::Index j) { return (bits >> j) & 1u ? 1.0 : -1.0; }));
+    const obsgain::SymbolicWeights symbolic = obsgain::symbolic_weights(X, free);
+    const std::vector<double> frobenius = obsgain::frobenius_uppers(X);
+    const std::vector<obsgain::TaylorMatrix> by_halves = obsgain::vertex_combinations(X, vertices, symbolic, frobenius);
+    ASSERT_EQ(by_halves.size(), vertices.size());
+    for (std::size_t v = 0; v < vertices.size(); ++v) {
+      const obsgain::TaylorMatrix one_by_one = obsgain::linear_combination(X, vertices[v], symbolic, frobenius);
+      ASSERT_EQ(by_halves[v].symbols(), one_by_one.symbols());
+      EXPECT_EQ(by_halves[v].remainder, one_by_one.remainder);
+      double rounding = 0.0;
+      for (int j = 0; j < terms; ++j) rounding += V(j) * frobenius[static_cast<std::size_t>(j)];
+      rounding *= 2.0 * (terms + 2) * 0x1p-52;  // each within the remainder's γ of the exact sum
+      const double moved = (by_halves[v].parts(0, one_by_one.parts()) - one_by_one.parts(0, one_by_one.parts())).cwiseAbs().maxCoeff();
+      EXPECT_LE(moved, rounding) << trial << " " << v;
+    }
+  }
+  std::vector<obsgain::TaylorMatrix> X{random_taylor_matrix(2, 2, 2, 1.0, rng), random_taylor_matrix(2, 2, 2, 1.0, rng)};
+  const std::vector<Eigen::VectorXd> unequal{Eigen::Vector2d(1.0, 2.0), Eigen::Vector2d(-1.0, 3.0)};
+  EXPECT_THROW(obsgain::vertex_combinations(X, unequal, obsgain::symbolic_weights(X, {false, false}), obsgain::frobenius_uppers(X)),
+               std::logic_error);
+}
+
 // A combination's remainder where the terms' remainders (and, for weights carried as symbols, their curvatures, third
 // order with the weight's symbol) sit in different entries: the Frobenius norm of their entrywise sum, not the sum of
 // their norms (docs/theory.md, "Remainders entry by entry in the combinations"). Two 2 x 2 terms over one symbol: X_0

@@ -105,6 +105,14 @@ SymbolicWeights symbolic_weights(const std::vector<TaylorMatrix>& terms, const s
 // those are known). Every weight in [-V_j, V_j] at once, for the price of a few symbols.
 TaylorMatrix linear_combination(const std::vector<TaylorMatrix>& terms, const Eigen::VectorXd& weights,
                                 const SymbolicWeights& symbolic, const std::vector<double>& frobenius);
+// linear_combination(terms, w, symbolic, frobenius) for every w of `vertices`, the vertices of one box: every |w_j| the
+// same (std::logic_error otherwise). The weights not free are split into two halves, each half's sums formed once per
+// sign pattern it takes, and each combination is the sum of its two halves': two sums per coefficient where the
+// combinations one by one take one per term. Their rounding is within the same γ (any order of summation), and the
+// remainders, which depend on the |w_j| only, are formed once.
+std::vector<TaylorMatrix> vertex_combinations(const std::vector<TaylorMatrix>& terms,
+                                              const std::vector<Eigen::VectorXd>& vertices, const SymbolicWeights& symbolic,
+                                              const std::vector<double>& frobenius);
 // X over `symbols` symbols, the ones beyond its own not entering it.
 TaylorMatrix with_symbols(const TaylorMatrix& X, int symbols);
 // Their frobenius_upper(), for linear_combination.
