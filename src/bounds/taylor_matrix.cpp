@@ -176,7 +176,8 @@ double sum_rounding(const Eigen::VectorXd& weights, const std::vector<double>& t
 
 // The coefficients of Σ_j w_j X_j over `symbols` symbols (at least the terms', the others not entering it), in X (its
 // remainder not set).
-void sum_coefficients(const std::vector<TaylorMatrix>& terms, const Eigen::VectorXd& weights, int symbols, TaylorMatrix& X) {
+void sum_coefficients(const std::vector<TaylorMatrix>& terms, const Eigen::VectorXd& weights, int symbols,
+                      TaylorMatrix& X) {
   X.resize(terms[0].rows(), terms[0].cols(), symbols);
   for (std::size_t j = 0; j < terms.size(); ++j) {
     const double w = weights(static_cast<Eigen::Index>(j));
@@ -277,8 +278,8 @@ Eigen::VectorXd fixed_weights(const Eigen::VectorXd& weights, const SymbolicWeig
 
 // The free terms' parts of the combination, V_j ω_j X_j: its centre a slope of ω_j, its slopes curvatures with ω_j.
 // X's coefficients there are zero before: the fixed terms have none.
-void set_free_parts(const std::vector<TaylorMatrix>& terms, const Eigen::VectorXd& weights, const SymbolicWeights& symbolic,
-                    TaylorMatrix& X) {
+void set_free_parts(const std::vector<TaylorMatrix>& terms, const Eigen::VectorXd& weights,
+                    const SymbolicWeights& symbolic, TaylorMatrix& X) {
   const int s = terms[0].symbols();
   for (std::size_t r = 0; r < symbolic.terms.size(); ++r) {
     const TaylorMatrix& T = terms[symbolic.terms[r]];
@@ -293,7 +294,8 @@ void set_free_parts(const std::vector<TaylorMatrix>& terms, const Eigen::VectorX
 // entries' remainders are known (then |Σ_p H_p ε_p| <= Σ_p |H_p|), else in norm, and the sums' and products'
 // rounding (`rounding`: the fixed terms' sums', sum_rounding). It depends on the |w_j| only.
 double combination_remainder(const std::vector<TaylorMatrix>& terms, const Eigen::VectorXd& weights,
-                             const SymbolicWeights& symbolic, const std::vector<double>& term_frobenius, double rounding) {
+                             const SymbolicWeights& symbolic, const std::vector<double>& term_frobenius,
+                             double rounding) {
   const Eigen::VectorXd fixed = fixed_weights(weights, symbolic);
   Eigen::MatrixXd E = combined_entry_remainders(terms, fixed);
   double remainder = E.size() ? 0.0 : summed_remainders(terms, fixed);
@@ -356,8 +358,8 @@ HalfSums half_sums(const std::vector<TaylorMatrix>& terms, const std::vector<Eig
 }  // namespace
 
 std::vector<TaylorMatrix> vertex_combinations(const std::vector<TaylorMatrix>& terms,
-                                              const std::vector<Eigen::VectorXd>& vertices, const SymbolicWeights& symbolic,
-                                              const std::vector<double>& frobenius) {
+                                              const std::vector<Eigen::VectorXd>& vertices,
+                                              const SymbolicWeights& symbolic, const std::vector<double>& frobenius) {
   if (vertices.empty()) return {};
   for (const Eigen::VectorXd& w : vertices)
     if (!(w.cwiseAbs().array() == vertices.front().cwiseAbs().array()).all())
@@ -975,12 +977,13 @@ double termwise_lower(const TaylorMatrix& X, double centre) {
   return terms * (1.0 - 1e-12);
 }
 
-// The smaller of the two proven bounds of ||X(ε)||₂ over the box, for the zero-centred E and Kᵀ E (scaled). On six-
-// and seven-joint arms the Gram bound was the smaller in every one of 120,000 calls but 8 (arm6, by at most 6 %), on
-// two and three joints the term-by-term bound in about half: its eigensolvers run only where a bound of its value from
-// below does not already exceed the Gram bound, and the smaller is the same. norm_upper is not taken: on 6- and
-// 7-joint arms it was never the smallest in the searches' first 20,000-46,000 calls (arm3: 14 of 3,401, by at most 13 %),
-// and it cost a fine norm bound each (docs/theory.md, "M⁻¹ over a box").
+// The smaller of the two proven bounds of ||X(ε)||₂ over the box, for the zero-centred E and Kᵀ E (scaled). In default
+// designs the Gram bound was the smaller in every one of about 130,000 calls on five six- and seven-joint arms and in
+// all but 8 of arm6's 32,484 (by at most 6 %); the term-by-term bound won half of arm3's calls and almost every one on
+// two joints (docs/history.md, the forty-second round). Its eigensolvers run only where a bound of its value from
+// below does not already exceed the Gram bound: the smaller is then the same. norm_upper is not taken: on 6- and
+// 7-joint arms it was never the smallest in the searches' first 20,000-46,000 calls (arm3: 14 of 3,401, by at most
+// 13 %), and it cost a fine norm bound each (docs/theory.md, "M⁻¹ over a box").
 double inverse_norm_upper(const TaylorMatrix& X) {
   const double centre = spectral_norm_upper(X.centre());  // in the default rounding, as its eigensolver expects
   const double gram = gram_norm_upper(X, centre);

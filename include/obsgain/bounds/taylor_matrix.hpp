@@ -111,8 +111,8 @@ TaylorMatrix linear_combination(const std::vector<TaylorMatrix>& terms, const Ei
 // combinations one by one take one per term. Their rounding is within the same γ (any order of summation), and the
 // remainders, which depend on the |w_j| only, are formed once.
 std::vector<TaylorMatrix> vertex_combinations(const std::vector<TaylorMatrix>& terms,
-                                              const std::vector<Eigen::VectorXd>& vertices, const SymbolicWeights& symbolic,
-                                              const std::vector<double>& frobenius);
+                                              const std::vector<Eigen::VectorXd>& vertices,
+                                              const SymbolicWeights& symbolic, const std::vector<double>& frobenius);
 // X over `symbols` symbols, the ones beyond its own not entering it.
 TaylorMatrix with_symbols(const TaylorMatrix& X, int symbols);
 // Their frobenius_upper(), for linear_combination.
