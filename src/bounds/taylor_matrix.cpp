@@ -914,8 +914,8 @@ std::vector<Taylor> left_multiply(const Eigen::MatrixXd& K, const std::vector<Ta
   const CoefficientMatrices x = coefficient_matrices(X, static_cast<int>(K.cols()), n, symbols);
   TaylorMatrix y;
   y.shape(K.rows(), n, symbols);
-  if ((K.rows() * n) % 2 == 0 && (K.cols() * n) % 2 == 0) {
-    // No padding between the parts (TaylorMatrix): side by side they are one matrix, and K times it one product.
+  if (x.X.packed() && y.packed()) {
+    // Side by side the parts are one matrix, and K times it one product.
     const auto from = x.X.parts(0, x.X.parts());
     auto to = y.parts(0, y.parts());
     Eigen::Map<Eigen::MatrixXd>(to.data(), K.rows(), n * y.parts()).noalias() =

@@ -49,6 +49,9 @@ class TaylorMatrix {
   // Its parts in one numbering: 0 the centre, then the slopes G_k, then the curvatures H_kl.
   int parts() const { return 1 + symbols_ + pair_count(symbols_); }
   int curvature_count() const { return pair_count(symbols_); }
+  // Whether the parts lie side by side with no padding (rows x cols even): parts(0, parts()) is then one rows x
+  // (cols parts()) matrix, column by column.
+  bool packed() const { return stride_ == rows_ * cols_; }
   Part part(int t) { return {coefficients_.data() + t * stride_, rows_, cols_}; }
   ConstPart part(int t) const { return {coefficients_.data() + t * stride_, rows_, cols_}; }
   Part centre() { return part(0); }
