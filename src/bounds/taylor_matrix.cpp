@@ -51,6 +51,14 @@ void add_pair_coefficient(Eigen::MatrixXd& Q, const std::pair<int, int>& pair, d
   }
 }
 
+// ||Δ||_F from the entries' remainders, summed row by row.
+double entries_frobenius(const Eigen::MatrixXd& r) {
+  double squares = 0.0;
+  for (Eigen::Index i = 0; i < r.rows(); ++i)
+    for (Eigen::Index j = 0; j < r.cols(); ++j) squares += r(i, j) * r(i, j);
+  return up(std::sqrt(up(squares)));
+}
+
 // An upper bound of max over the box of Σ_k l_k ε_k + Σ_{k,l} Q_kl ε_k ε_l (Q symmetric): each symbol's own
 // quadratic maximised exactly, the cross terms by their moduli. At a maximum the linear terms vanish and the
 // diagonal is negative: the bound is then about the cross terms, not the curvature's size.
@@ -121,7 +129,6 @@ TaylorMatrix taylor_matrix(const Taylor* entries, int rows, int cols, int symbol
   X.shape(rows, cols, symbols);
   X.entry_remainder.resize(rows, cols);
   const int pairs = pair_count(symbols);
-  double squares = 0.0;
   for (int i = 0; i < rows; ++i)
     for (int j = 0; j < cols; ++j) {
       const Taylor& x = entries[i * cols + j];
@@ -129,10 +136,15 @@ TaylorMatrix taylor_matrix(const Taylor* entries, int rows, int cols, int symbol
       for (int k = 0; k < symbols; ++k) X.slope(k)(i, j) = x.slope(k);
       for (int p = 0; p < pairs; ++p) X.curvature(p)(i, j) = x.curvature(p);
       X.entry_remainder(i, j) = x.r;
-      squares += x.r * x.r;
     }
-  X.remainder = up(std::sqrt(up(squares)));
+  X.remainder = entries_frobenius(X.entry_remainder);
   return X;
+}
+
+TaylorMatrix taylor_matrix(const std::vector<Taylor>& entries, int rows, int cols) {
+  int symbols = 0;
+  for (const Taylor& x : entries) symbols = std::max(symbols, x.symbols);
+  return taylor_matrix(entries.data(), rows, cols, symbols);
 }
 
 std::vector<double> frobenius_uppers(const std::vector<TaylorMatrix>& terms) {
@@ -716,49 +728,35 @@ double smallest_eigenvalue_lower(const TaylorMatrix& X) {
 
 namespace {
 
-// Row-major forms as a Taylor matrix over `symbols` symbols (its entry_remainder each entry's r), with each entry's
-// sizes: Σ|a_k|, Σ|b_p| and |c| + both.
+// A Taylor matrix whose entries' remainders are known, with each entry's sizes as its form's (Taylor::linear_size,
+// quadratic_size): Σ|a_k|, Σ|b_p| and |c| + both, summed entry by entry in the forms' order.
 struct CoefficientMatrices {
-  TaylorMatrix X;
+  const TaylorMatrix& X;
   Eigen::MatrixXd linear, quadratic, total;
 };
 
-CoefficientMatrices coefficient_matrices(const std::vector<Taylor>& X, int rows, int cols, int symbols) {
-  CoefficientMatrices m{taylor_matrix(X.data(), rows, cols, symbols), {}, {}, {}};
-  m.linear.resize(rows, cols);
-  m.quadratic.resize(rows, cols);
-  m.total.resize(rows, cols);
-  for (int i = 0; i < rows; ++i)
-    for (int j = 0; j < cols; ++j) {
-      const Taylor& x = X[static_cast<std::size_t>(i * cols + j)];
-      m.linear(i, j) = x.linear_size();
-      m.quadratic(i, j) = x.quadratic_size();
-      m.total(i, j) = up(std::abs(x.c) + m.linear(i, j) + m.quadratic(i, j));
-    }
+CoefficientMatrices coefficient_matrices(const TaylorMatrix& X) {
+  const auto rounded_up = [](double x) { return up(x); };
+  CoefficientMatrices m{X, Eigen::MatrixXd::Zero(X.rows(), X.cols()), Eigen::MatrixXd::Zero(X.rows(), X.cols()), {}};
+  for (int k = 0; k < X.symbols(); ++k) m.linear += X.slope(k).cwiseAbs();
+  for (int p = 0; p < X.curvature_count(); ++p) m.quadratic += X.curvature(p).cwiseAbs();
+  m.linear = m.linear.unaryExpr(rounded_up);
+  m.quadratic = m.quadratic.unaryExpr(rounded_up);
+  m.total = (X.centre().cwiseAbs() + m.linear + m.quadratic).unaryExpr(rounded_up);
   return m;
 }
 
-// Row-major forms from a Taylor matrix's parts and each entry's remainder, rounded up.
-std::vector<Taylor> forms_of(const TaylorMatrix& terms, const Eigen::MatrixXd& remainder) {
-  const auto rows = static_cast<int>(remainder.rows()), cols = static_cast<int>(remainder.cols());
-  const int symbols = terms.symbols();
-  std::vector<Taylor> X(static_cast<std::size_t>(rows * cols));
-  for (int i = 0; i < rows; ++i)
-    for (int j = 0; j < cols; ++j) {
-      Taylor& x = X[static_cast<std::size_t>(i * cols + j)];
-      x.c = terms.centre()(i, j);
-      x.symbols = symbols;
-      for (int k = 0; k < symbols; ++k) x.a[k] = terms.slope(k)(i, j);
-      for (int p = 0; p < pair_count(symbols); ++p) x.b[p] = terms.curvature(p)(i, j);
-      x.r = up(remainder(i, j));
-    }
-  return X;
+// Each entry's remainder rounded up, and ||Δ||_F from them.
+void set_entry_remainders(TaylorMatrix& X, const Eigen::MatrixXd& remainder) {
+  X.entry_remainder = remainder.unaryExpr([](double x) { return up(x); });
+  X.remainder = entries_frobenius(X.entry_remainder);
 }
 
-int symbols_of(const std::vector<Taylor>& X) {
-  int symbols = 0;
-  for (const Taylor& x : X) symbols = std::max(symbols, x.symbols);
-  return symbols;
+// X itself where it has at least `symbols` symbols, else X with zero parts for the others (in `padded`).
+const TaylorMatrix& over_symbols(const TaylorMatrix& X, int symbols, TaylorMatrix& padded) {
+  if (X.symbols() >= symbols) return X;
+  padded = with_symbols(X, symbols);
+  return padded;
 }
 
 // The cubic monomials ε_i ε_j ε_l (i <= j <= l) of m symbols, ordered by l and then by the pair (i, j) in kPairs'
@@ -849,10 +847,12 @@ void second_order_parts(const TaylorMatrix& a, const TaylorMatrix& b, bool squar
 // of one term of A and one of B, each product in one coefficient only: their rounding, in any order of summation, is
 // within γ_{4 inner} Σ_m total(A)_im total(B)_mj, and their underflow (at most 4 · 8 · 120 products of 2⁻¹⁰⁷⁴ per
 // entry) within the 2⁻¹⁰⁶⁰ that up() adds.
-std::vector<Taylor> product_of(const std::vector<Taylor>& A, const std::vector<Taylor>& B, int rows, int inner, int cols,
-                               CubicTerms cubic_terms, bool square) {
-  const int symbols = std::max(symbols_of(A), symbols_of(B));
-  const CoefficientMatrices a = coefficient_matrices(A, rows, inner, symbols), b = coefficient_matrices(B, inner, cols, symbols);
+TaylorMatrix product_of(const TaylorMatrix& A, const TaylorMatrix& B, CubicTerms cubic_terms, bool square) {
+  const int symbols = std::max(A.symbols(), B.symbols());
+  const auto inner = static_cast<int>(A.cols());
+  TaylorMatrix padded_a, padded_b;
+  const CoefficientMatrices a = coefficient_matrices(over_symbols(A, symbols, padded_a));
+  const CoefficientMatrices b = coefficient_matrices(over_symbols(B, symbols, padded_b));
   // S + Sᵀ is A A only for symmetric coefficient matrices: anything else would be an unsound product.
   for (int t = 0; square && t < a.X.parts(); ++t)
     if (!(a.X.part(t).array() == a.X.part(t).transpose().array()).all())
@@ -860,7 +860,7 @@ std::vector<Taylor> product_of(const std::vector<Taylor>& A, const std::vector<T
   Eigen::MatrixXd cubic;
   if (cubic_terms == CubicTerms::by_monomials) cubic = cubic_upper(a, b, symbols, square);
   TaylorMatrix c;
-  c.shape(rows, cols, symbols);
+  c.shape(A.rows(), B.cols(), symbols);
   second_order_parts(a.X, b.X, square, c);
   Eigen::MatrixXd remainder;
   {
@@ -871,27 +871,18 @@ std::vector<Taylor> product_of(const std::vector<Taylor>& A, const std::vector<T
     remainder = cubic + a.quadratic * b.quadratic + a.total * br + ar * b.total + ar * br +
                 gamma(4 * inner) * (a.total * b.total);
   }
-  return forms_of(c, remainder);
+  set_entry_remainders(c, remainder);
+  return c;
 }
 
 }  // namespace
 
-std::vector<Taylor> product(const std::vector<Taylor>& A, const std::vector<Taylor>& B, int rows, int inner, int cols,
-                            CubicTerms cubic_terms) {
-  return product_of(A, B, rows, inner, cols, cubic_terms, false);
+TaylorMatrix product(const TaylorMatrix& A, const TaylorMatrix& B, CubicTerms cubic_terms) {
+  return product_of(A, B, cubic_terms, false);
 }
 
-std::vector<Taylor> symmetric_square(const std::vector<Taylor>& E, int n, CubicTerms cubic_terms) {
-  return product_of(E, E, n, n, n, cubic_terms, true);
-}
-
-double frobenius_upper(const std::vector<Taylor>& X) {
-  double squares = 0.0;
-  for (const Taylor& x : X) {
-    const double magnitude = up(std::abs(x.c) + x.radius());
-    squares += magnitude * magnitude;
-  }
-  return up(std::sqrt(up(squares)));
+TaylorMatrix symmetric_square(const TaylorMatrix& E, CubicTerms cubic_terms) {
+  return product_of(E, E, cubic_terms, true);
 }
 
 namespace {
@@ -907,29 +898,120 @@ Eigen::MatrixXd inverse_cholesky_factor(const std::vector<Taylor>& M, int n) {
   return L.triangularView<Eigen::Lower>().solve(Eigen::MatrixXd::Identity(n, n));
 }
 
-// K X (K a double matrix) as forms, coefficient by coefficient as matrix products. Each coefficient of an entry is a
-// sum of K.cols() products K_ik x_kj, rounded within γ Σ_k |K_ik| |x_kj|: over the coefficients, γ (|K| total(X))_ij.
-std::vector<Taylor> left_multiply(const Eigen::MatrixXd& K, const std::vector<Taylor>& X, int n) {
-  const int symbols = symbols_of(X);
-  const CoefficientMatrices x = coefficient_matrices(X, static_cast<int>(K.cols()), n, symbols);
+// K X (K a double matrix), coefficient by coefficient as matrix products. Each coefficient of an entry is a sum of
+// K.cols() products K_ik x_kj, rounded within γ Σ_k |K_ik| |x_kj|: over the coefficients, γ (|K| total(X))_ij.
+TaylorMatrix left_multiply(const Eigen::MatrixXd& K, const TaylorMatrix& X) {
+  const CoefficientMatrices x = coefficient_matrices(X);
+  const auto n = X.cols();
   TaylorMatrix y;
-  y.shape(K.rows(), n, symbols);
-  if (x.X.packed() && y.packed()) {
+  y.shape(K.rows(), n, X.symbols());
+  if (X.packed() && y.packed()) {
     // Side by side the parts are one matrix, and K times it one product.
-    const auto from = x.X.parts(0, x.X.parts());
+    const auto from = X.parts(0, X.parts());
     auto to = y.parts(0, y.parts());
     Eigen::Map<Eigen::MatrixXd>(to.data(), K.rows(), n * y.parts()).noalias() =
         K * Eigen::Map<const Eigen::MatrixXd>(from.data(), K.cols(), n * y.parts());
   } else {
-    for (int t = 0; t < y.parts(); ++t) y.part(t).noalias() = K * x.X.part(t);
+    for (int t = 0; t < y.parts(); ++t) y.part(t).noalias() = K * X.part(t);
   }
   Eigen::MatrixXd remainder;
   {
     const UpwardRounding upward;
     const Eigen::MatrixXd K_abs = K.cwiseAbs();
-    remainder = K_abs * x.X.entry_remainder + gamma(static_cast<int>(K.cols())) * (K_abs * x.total);
+    remainder = K_abs * X.entry_remainder + gamma(static_cast<int>(K.cols())) * (K_abs * x.total);
   }
-  return forms_of(y, remainder);
+  set_entry_remainders(y, remainder);
+  return y;
+}
+
+TaylorMatrix transposed(const TaylorMatrix& X) {
+  TaylorMatrix Y;
+  Y.shape(X.cols(), X.rows(), X.symbols());
+  for (int t = 0; t < X.parts(); ++t) Y.part(t) = X.part(t).transpose();
+  Y.entry_remainder = X.entry_remainder.transpose();
+  Y.remainder = entries_frobenius(Y.entry_remainder);
+  return Y;
+}
+
+// The upper triangle's entries, every part and remainder, copied to the lower.
+void mirror_upper(TaylorMatrix& Y) {
+  for (Eigen::Index i = 0; i < Y.rows(); ++i)
+    for (Eigen::Index j = i + 1; j < Y.cols(); ++j) {
+      for (int t = 0; t < Y.parts(); ++t) Y.part(t)(j, i) = Y.part(t)(i, j);
+      Y.entry_remainder(j, i) = Y.entry_remainder(i, j);
+    }
+  Y.remainder = entries_frobenius(Y.entry_remainder);
+}
+
+// Entry (i, j) is the exact zero as a form (Taylor::is_zero): no symbols, and its centre and remainder 0.
+bool zero_entry(const TaylorMatrix& X, Eigen::Index i, Eigen::Index j) {
+  return X.symbols() == 0 && X.centre()(i, j) == 0.0 && X.entry_remainder(i, j) == 0.0;
+}
+
+// Σ_t |X_t| entry by entry over the parts in their order (centre, slopes, curvatures), as a form sums its
+// coefficients' moduli.
+Eigen::MatrixXd coefficient_moduli(const TaylorMatrix& X) {
+  Eigen::MatrixXd moduli = X.centre().cwiseAbs();
+  for (int t = 1; t < X.parts(); ++t) moduli += X.part(t).cwiseAbs();
+  return moduli;
+}
+
+// Entry (i, j) times S(i, j), as scale_into scales its form: by 0 and ±1 exactly, else each product within 2⁻⁵² of
+// its modulus, in the entry's remainder.
+void scale_entries(TaylorMatrix& X, const Eigen::MatrixXd& S) {
+  const Eigen::MatrixXd moduli = coefficient_moduli(X);
+  bool every_form = X.symbols() > 0;  // no entry is the exact zero, whose product is itself
+  for (Eigen::Index j = 0; j < X.cols(); ++j)
+    for (Eigen::Index i = 0; i < X.rows(); ++i) {
+      const double s = S(i, j), as = std::abs(s);
+      double& r = X.entry_remainder(i, j);
+      if (s == 0.0) every_form = false;
+      if (s == 1.0 || s == -1.0 || zero_entry(X, i, j)) continue;
+      r = s == 0.0 ? 0.0 : up(as * r + kTaylorRoundoff * up(as * up(moduli(i, j)) * (1.0 + kTaylorRoundoff)));
+    }
+  if (every_form) {
+    for (int t = 0; t < X.parts(); ++t) X.part(t).array() *= S.array();
+  } else {
+    for (Eigen::Index j = 0; j < X.cols(); ++j)
+      for (Eigen::Index i = 0; i < X.rows(); ++i)
+        if (!zero_entry(X, i, j) || S(i, j) == 0.0)
+          for (int t = 0; t < X.parts(); ++t) X.part(t)(i, j) = S(i, j) == 0.0 ? 0.0 : S(i, j) * X.part(t)(i, j);
+  }
+  X.remainder = entries_frobenius(X.entry_remainder);
+}
+
+// X_ii + a, as add_into adds the constant's form: the centre's sum rounded within 2⁻⁵² of its modulus.
+void add_to_diagonal(TaylorMatrix& X, double a) {
+  for (Eigen::Index i = 0; i < X.rows(); ++i) {
+    double& c = X.centre()(i, i);
+    double& r = X.entry_remainder(i, i);
+    if (zero_entry(X, i, i)) {
+      c = a;  // exact: the constant
+      continue;
+    }
+    c = c + a;
+    r = up(r + kTaylorRoundoff * up(std::abs(c)));
+  }
+  X.remainder = entries_frobenius(X.entry_remainder);
+}
+
+// X - Y over the same symbols, as subtract_into subtracts each entry's forms: each coefficient's difference rounded
+// within 2⁻⁵² of its modulus.
+TaylorMatrix difference(const TaylorMatrix& X, const TaylorMatrix& Y) {
+  if (X.symbols() != Y.symbols()) throw std::logic_error("difference: the Taylor matrices' symbols differ");
+  TaylorMatrix Z = X;
+  Z.parts(0, Z.parts()) -= Y.parts(0, Y.parts());
+  const Eigen::MatrixXd moduli = coefficient_moduli(Z);
+  for (Eigen::Index j = 0; j < X.cols(); ++j)
+    for (Eigen::Index i = 0; i < X.rows(); ++i) {
+      const double x = X.entry_remainder(i, j), y = Y.entry_remainder(i, j);
+      // The exact zero's difference is the other form, exactly.
+      Z.entry_remainder(i, j) = zero_entry(Y, i, j)   ? x
+                                : zero_entry(X, i, j) ? y
+                                                      : up(x + y + kTaylorRoundoff * up(moduli(i, j)));
+    }
+  Z.remainder = entries_frobenius(Z.entry_remainder);
+  return Z;
 }
 
 // ||X(ε)||₂ over the box by the triangle inequality, term by term: ||C||₂ + Σ_k ||G_k||₂ + Σ_p ||H_p||_F + remainder.
@@ -991,13 +1073,6 @@ double inverse_norm_upper(const TaylorMatrix& X) {
   return std::min(termwise_norm_upper(X, centre), gram);
 }
 
-std::vector<Taylor> transpose(const std::vector<Taylor>& X, int n) {
-  std::vector<Taylor> Y(X.size());
-  for (int i = 0; i < n; ++i)
-    for (int j = 0; j < n; ++j) Y[j * n + i] = X[i * n + j];
-  return Y;
-}
-
 }  // namespace
 
 TaylorInverse inverse(const std::vector<Taylor>& M, int n, int symbols) {
@@ -1007,43 +1082,40 @@ TaylorInverse inverse(const std::vector<Taylor>& M, int n, int symbols) {
   // Y = K M Kᵀ = K (K M)ᵀ (M symmetric) and M⁻¹ = Kᵀ Y⁻¹ K = c Kᵀ (I + E)⁻¹ K with E = c Y - I for any c > 0. c = 1
   // where ||Y - I|| < 1; on a box where Y varies more, c = 2 / (λ_lo + λ_hi) centres Y's proven spectrum [λ_lo, λ_hi] on
   // 1, and ||E|| < 1 wherever Y is proven positive definite (docs/theory.md, "M⁻¹ over a box").
-  std::vector<Taylor> Y = left_multiply(K, transpose(left_multiply(K, M, n), n), n);
+  TaylorMatrix Y = left_multiply(K, transposed(left_multiply(K, taylor_matrix(M, n, n))));
   // Y is symmetric, and its forms Y_ij and Y_ji enclose the same function over the box, each formed by other sums: the
   // upper triangle's serve for both, so that E's coefficient matrices are symmetric and E² takes half the matrix
   // products (product_of's `square`).
-  for (int i = 0; i < n; ++i)
-    for (int j = i + 1; j < n; ++j) Y[static_cast<std::size_t>(j * n + i)] = Y[static_cast<std::size_t>(i * n + j)];
+  mirror_upper(Y);
   const auto shifted = [&](double c) {
-    std::vector<Taylor> E(Y.size());
-    for (std::size_t i = 0; i < Y.size(); ++i) E[i] = c == 1.0 ? Y[i] : c * Y[i];
-    for (int i = 0; i < n; ++i) E[i * n + i] = E[i * n + i] - 1.0;
+    TaylorMatrix E = Y;
+    if (c != 1.0) scale_entries(E, Eigen::MatrixXd::Constant(n, n, c));
+    add_to_diagonal(E, -1.0);
     return E;
   };
+  TaylorMatrix padded;
   double c = 1.0;
-  std::vector<Taylor> E = shifted(c);
-  double eta = inverse_norm_upper(taylor_matrix(E.data(), n, n, symbols));
+  TaylorMatrix E = shifted(c);
+  double eta = inverse_norm_upper(over_symbols(E, symbols, padded));
   if (!(eta < 1.0)) {
-    const double low = smallest_eigenvalue_lower(taylor_matrix(Y.data(), n, n, symbols));
+    const double low = smallest_eigenvalue_lower(over_symbols(Y, symbols, padded));
     if (!(low > 0.0) || !std::isfinite(eta)) return result;
     c = 2.0 / (low + 1.0 + eta);  // λmax(Y) <= 1 + ||Y - I||
     E = shifted(c);
-    eta = inverse_norm_upper(taylor_matrix(E.data(), n, n, symbols));
+    eta = inverse_norm_upper(over_symbols(E, symbols, padded));
     if (!(eta < 1.0)) return result;
   }
   // c Kᵀ (I - E + E²) K.
-  const std::vector<Taylor> E2 = symmetric_square(E, n, CubicTerms::by_monomials);
-  std::vector<Taylor> Z(E.size());
-  for (std::size_t i = 0; i < E.size(); ++i) Z[i] = E2[i] - E[i];
-  for (int i = 0; i < n; ++i) Z[i * n + i] = Z[i * n + i] + 1.0;
+  TaylorMatrix Z = difference(symmetric_square(E, CubicTerms::by_monomials), E);
+  add_to_diagonal(Z, 1.0);
   const Eigen::MatrixXd Kt = K.transpose();
-  result.entries = left_multiply(Kt, transpose(left_multiply(Kt, transpose(Z, n), n), n), n);
-  if (c != 1.0)
-    for (Taylor& x : result.entries) x = c * x;
+  result.entries = left_multiply(Kt, transposed(left_multiply(Kt, transposed(Z))));
+  if (c != 1.0) scale_entries(result.entries, Eigen::MatrixXd::Constant(n, n, c));
   // c Kᵀ E³ (I + E)⁻¹ K = c (E K)ᵀ · E (I + E)⁻¹ · (E K), and ||E (I + E)⁻¹|| <= η / (1 - η) for the symmetric E: the
   // tail is c ||E K||² η / (1 - η), which sees that E K is small where M varies only in its heavy directions
   // (||E K|| <= η ||K||). ||E K|| = ||(E K)ᵀ|| = ||Kᵀ E|| for the symmetric E that every member of the forms is.
-  result.KtE = left_multiply(K.transpose(), E, n);
-  const double EK_norm = inverse_norm_upper(taylor_matrix(result.KtE.data(), n, n, symbols));
+  result.KtE = left_multiply(Kt, E);
+  const double EK_norm = inverse_norm_upper(over_symbols(result.KtE, symbols, padded));
   const UpwardRounding upward;
   const Interval e(eta);
   result.tail = (Interval(c) * Interval(EK_norm) * Interval(EK_norm) * e / (Interval(1.0) - e)).upper();
@@ -1052,13 +1124,34 @@ TaylorInverse inverse(const std::vector<Taylor>& M, int n, int symbols) {
   return result;
 }
 
+void scale_diagonally(TaylorMatrix& X, const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
+  scale_entries(X, a.rowwise().replicate(X.cols()));
+  scale_entries(X, b.transpose().colwise().replicate(X.rows()));
+}
+
+TaylorMatrix columns_of(const TaylorMatrix& X, const std::vector<int>& columns) {
+  TaylorMatrix Y;
+  Y.shape(X.rows(), static_cast<Eigen::Index>(columns.size()), X.symbols());
+  Y.entry_remainder.resize(X.rows(), Y.cols());
+  const Eigen::Index rows = X.rows();
+  for (int t = 0; t < X.parts(); ++t) {
+    const double* from = X.part(t).data();
+    double* to = Y.part(t).data();
+    for (std::size_t k = 0; k < columns.size(); ++k) std::copy_n(from + columns[k] * rows, rows, to + k * rows);
+  }
+  for (std::size_t k = 0; k < columns.size(); ++k)
+    Y.entry_remainder.col(static_cast<Eigen::Index>(k)) = X.entry_remainder.col(columns[k]);
+  Y.remainder = entries_frobenius(Y.entry_remainder);
+  return Y;
+}
+
 double tail_upper(const TaylorInverse& inverse, const Eigen::VectorXd& a, const Eigen::VectorXd& b, int symbols) {
-  const int n = static_cast<int>(a.size());
+  const Eigen::VectorXd ones = Eigen::VectorXd::Ones(a.size());
+  TaylorMatrix padded;
   const auto norm = [&](const Eigen::VectorXd& d) {
-    std::vector<Taylor> X(inverse.KtE.size());
-    for (int i = 0; i < n; ++i)
-      for (int k = 0; k < n; ++k) X[i * n + k] = d(i) * inverse.KtE[i * n + k];
-    return inverse_norm_upper(taylor_matrix(X.data(), n, n, symbols));
+    TaylorMatrix X = inverse.KtE;
+    scale_diagonally(X, d, ones);
+    return inverse_norm_upper(over_symbols(X, symbols, padded));
   };
   const double Ka = norm(a), Kb = norm(b);
   const UpwardRounding upward;

@@ -43,6 +43,32 @@ double polynomial_part(const obsgain::Taylor& x, const std::vector<double>& epsi
 bool encloses(const obsgain::Taylor& x, const std::vector<double>& epsilon, double value, double slack) {
   return std::abs(value - polynomial_part(x, epsilon)) <= x.r + slack;
 }
+
+// Row-major forms of a Taylor matrix's entries, each with its entry's remainder.
+std::vector<obsgain::Taylor> entry_forms(const obsgain::TaylorMatrix& X) {
+  std::vector<obsgain::Taylor> forms;
+  for (Eigen::Index i = 0; i < X.rows(); ++i)
+    for (Eigen::Index j = 0; j < X.cols(); ++j) {
+      obsgain::Taylor x(X.centre()(i, j));
+      x.symbols = X.symbols();
+      for (int k = 0; k < X.symbols(); ++k) x.a[k] = X.slope(k)(i, j);
+      for (int p = 0; p < X.curvature_count(); ++p) x.b[p] = X.curvature(p)(i, j);
+      x.r = X.entry_remainder(i, j);
+      forms.push_back(x);
+    }
+  return forms;
+}
+// Products and symmetric squares of row-major forms, through the Taylor matrices the bounds multiply.
+std::vector<obsgain::Taylor> forms_product(const std::vector<obsgain::Taylor>& A, const std::vector<obsgain::Taylor>& B,
+                                           int rows, int inner, int cols,
+                                           obsgain::CubicTerms cubic = obsgain::CubicTerms::by_sizes) {
+  const obsgain::TaylorMatrix a = obsgain::taylor_matrix(A, rows, inner), b = obsgain::taylor_matrix(B, inner, cols);
+  return entry_forms(obsgain::product(a, b, cubic));
+}
+std::vector<obsgain::Taylor> forms_square(const std::vector<obsgain::Taylor>& E, int n,
+                                          obsgain::CubicTerms cubic = obsgain::CubicTerms::by_sizes) {
+  return entry_forms(obsgain::symmetric_square(obsgain::taylor_matrix(E, n, n), cubic));
+}
 // Two forms equal to the bit.
 void expect_same(const obsgain::Taylor& a, const obsgain::Taylor& b) {
   EXPECT_EQ(a.c, b.c);
@@ -571,10 +597,10 @@ TEST(TaylorMatrices, ProductCubicTermsCancelMonomialByMonomial) {
   using obsgain::CubicTerms;
   const std::vector<obsgain::Taylor> row{monomial(3, 0), monomial(3, 1)};
   const std::vector<obsgain::Taylor> column{monomial(3, 1, 2), -monomial(3, 0, 2)};
-  EXPECT_LT(obsgain::product(row, column, 1, 2, 1, CubicTerms::by_monomials).front().r, 1e-12);  // rounding only
-  EXPECT_NEAR(obsgain::product(row, column, 1, 2, 1, CubicTerms::by_sizes).front().r, 2.0, 1e-12);
+  EXPECT_LT(forms_product(row, column, 1, 2, 1, CubicTerms::by_monomials).front().r, 1e-12);  // rounding only
+  EXPECT_NEAR(forms_product(row, column, 1, 2, 1, CubicTerms::by_sizes).front().r, 2.0, 1e-12);
   for (const CubicTerms cubic : {CubicTerms::by_monomials, CubicTerms::by_sizes})
-    EXPECT_NEAR(obsgain::product({monomial(2, 0)}, {monomial(2, 0, 1)}, 1, 1, 1, cubic).front().r, 1.0, 1e-12);
+    EXPECT_NEAR(forms_product({monomial(2, 0)}, {monomial(2, 0, 1)}, 1, 1, 1, cubic).front().r, 1.0, 1e-12);
 
   std::mt19937_64 rng(17);
   std::normal_distribution<double> normal;
@@ -592,8 +618,8 @@ TEST(TaylorMatrices, ProductCubicTermsCancelMonomialByMonomial) {
   };
   for (int trial = 0; trial < 20; ++trial) {
     const std::vector<obsgain::Taylor> A = random_forms(rows * inner), B = random_forms(inner * cols);
-    const std::vector<obsgain::Taylor> monomials = obsgain::product(A, B, rows, inner, cols, CubicTerms::by_monomials);
-    const std::vector<obsgain::Taylor> sizes = obsgain::product(A, B, rows, inner, cols, CubicTerms::by_sizes);
+    const std::vector<obsgain::Taylor> monomials = forms_product(A, B, rows, inner, cols, CubicTerms::by_monomials);
+    const std::vector<obsgain::Taylor> sizes = forms_product(A, B, rows, inner, cols, CubicTerms::by_sizes);
     for (int point = 0; point < 50; ++point) {
       std::vector<double> epsilon(symbols);
       for (double& e : epsilon) e = uniform(rng);
@@ -646,14 +672,14 @@ TEST(TaylorMatrices, SymmetricSquaresAndDistinctColumnsGiveTheProductsFormsToThe
       for (int i = 0; i < n; ++i)
         for (int j = i; j < n; ++j) E[j * n + i] = E[i * n + j] = random_form(symbols);
       for (const CubicTerms cubic : {CubicTerms::by_sizes, CubicTerms::by_monomials}) {
-        const std::vector<obsgain::Taylor> square = obsgain::symmetric_square(E, n, cubic);
-        const std::vector<obsgain::Taylor> general = obsgain::product(E, E, n, n, n, cubic);
+        const std::vector<obsgain::Taylor> square = forms_square(E, n, cubic);
+        const std::vector<obsgain::Taylor> general = forms_product(E, E, n, n, n, cubic);
         for (std::size_t e = 0; e < E.size(); ++e) expect_same(square, e, general, e);
       }
       // S + Sᵀ is E E only for symmetric coefficient matrices: one coefficient off, and it refuses.
       std::vector<obsgain::Taylor> skew = E;
       skew[1].a[symbols - 1] += 1e-9;
-      EXPECT_THROW(obsgain::symmetric_square(skew, n), std::logic_error);
+      EXPECT_THROW(forms_square(skew, n), std::logic_error);
       // [J_1 ... J_n F]: n(n + 1) columns, (j, k) and (k, j) the same forms for j, k < n, against the n(n + 3)/2
       // distinct ones.
       std::vector<obsgain::Taylor> A(static_cast<std::size_t>(n * n));
@@ -666,10 +692,51 @@ TEST(TaylorMatrices, SymmetricSquaresAndDistinctColumnsGiveTheProductsFormsToThe
       for (obsgain::Taylor& c : C) c = random_form(symbols);
       for (int i = 0; i < n; ++i)
         for (int c = 0; c < all; ++c) B[i * all + c] = C[i * distinct + column_of[c]];
-      const std::vector<obsgain::Taylor> full = obsgain::product(A, B, n, n, all), fewer = obsgain::product(A, C, n, n, distinct);
+      const std::vector<obsgain::Taylor> full = forms_product(A, B, n, n, all);
+      const std::vector<obsgain::Taylor> fewer = forms_product(A, C, n, n, distinct);
       for (int i = 0; i < n; ++i)
         for (int c = 0; c < all; ++c) expect_same(full, i * all + c, fewer, i * distinct + column_of[c]);
     }
+}
+
+// M⁻¹'s series and M⁻¹ [J F]'s blocks stay Taylor matrices from M to the terms (docs/history.md, the forty-third
+// round); what they do to each entry is what the forms' own operations did, to the bit. diag(a) X diag(b) against
+// (x a_i) b_j form by form, with scales of 1, -1, 0 and others; the given columns against the forms moved.
+TEST(TaylorMatrices, DiagonalScalingAndColumnsAreTheFormsOperationsToTheBit) {
+  std::mt19937_64 rng(31);
+  std::normal_distribution<double> normal;
+  const int rows = 4, cols = 5, symbols = 6;
+  std::vector<obsgain::Taylor> forms(static_cast<std::size_t>(rows * cols));
+  for (obsgain::Taylor& x : forms) {
+    x = obsgain::Taylor::symbol(normal(rng), 0.3 * normal(rng), symbols - 1);
+    for (int k = 0; k < symbols; ++k) x.a[k] = 0.3 * normal(rng);
+    for (int p = 0; p < obsgain::pair_count(symbols); ++p) x.b[p] = 0.1 * normal(rng);
+    x.r = 0.01 * std::abs(normal(rng));
+  }
+  const auto same = [](const obsgain::Taylor& x, const obsgain::Taylor& y) {
+    bool equal = std::bit_cast<std::uint64_t>(x.c) == std::bit_cast<std::uint64_t>(y.c) &&
+                 std::bit_cast<std::uint64_t>(x.r) == std::bit_cast<std::uint64_t>(y.r);
+    for (int k = 0; k < x.symbols; ++k) equal = equal && x.slope(k) == y.slope(k);
+    for (int p = 0; p < obsgain::pair_count(x.symbols); ++p) equal = equal && x.curvature(p) == y.curvature(p);
+    return equal;
+  };
+  Eigen::VectorXd a(rows), b(cols);
+  a << 1.0, -1.0, 0.3711, 2.5;
+  b << 0.0, 1.0, -0.75, 1.3662, -1.0;
+  obsgain::TaylorMatrix X = obsgain::taylor_matrix(forms, rows, cols);
+  obsgain::scale_diagonally(X, a, b);
+  const std::vector<obsgain::Taylor> scaled = entry_forms(X);
+  for (int i = 0; i < rows; ++i)
+    for (int j = 0; j < cols; ++j) {
+      const obsgain::Taylor expected = (forms[static_cast<std::size_t>(i * cols + j)] * a(i)) * b(j);
+      EXPECT_TRUE(same(scaled[static_cast<std::size_t>(i * cols + j)], expected)) << i << "," << j;
+    }
+  const std::vector<int> columns{3, 0, 3, 4};
+  const obsgain::TaylorMatrix whole = obsgain::taylor_matrix(forms, rows, cols);
+  const std::vector<obsgain::Taylor> moved = entry_forms(obsgain::columns_of(whole, columns));
+  for (int i = 0; i < rows; ++i)
+    for (std::size_t k = 0; k < columns.size(); ++k)
+      EXPECT_TRUE(same(moved[i * columns.size() + k], forms[static_cast<std::size_t>(i * cols + columns[k])]));
 }
 
 // A sum of products gathers its cubic terms across the sum before taking their moduli (docs/theory.md, "Cubic terms
@@ -788,7 +855,7 @@ RandomPoint random_point(const obsgain::JointSearch& s, const RandomBox& box, co
 // M⁻¹'s proven deviation from its forms' polynomial part, ||entry remainders||_F + tail, and the true one at a point.
 double proven_deviation(const obsgain::TaylorInverse& inverse) {
   double remainders = 0.0;
-  for (const obsgain::Taylor& x : inverse.entries) remainders += x.r * x.r;
+  for (const obsgain::Taylor& x : entry_forms(inverse.entries)) remainders += x.r * x.r;
   return std::sqrt(remainders) + inverse.tail;
 }
 Eigen::MatrixXd inverse_inertia_at(const obsgain::Model& model, const RandomPoint& point) {
@@ -799,7 +866,9 @@ Eigen::MatrixXd inverse_inertia_at(const obsgain::Model& model, const RandomPoin
 double deviation_at(const Eigen::MatrixXd& M_inverse, const obsgain::TaylorInverse& inverse, const RandomPoint& point) {
   const auto n = M_inverse.rows();
   Eigen::MatrixXd P(n, n);
-  for (Eigen::Index i = 0; i < n * n; ++i) P(i / n, i % n) = polynomial_part(inverse.entries[static_cast<std::size_t>(i)], point.epsilon);
+  const std::vector<obsgain::Taylor> forms = entry_forms(inverse.entries);
+  for (Eigen::Index i = 0; i < n * n; ++i)
+    P(i / n, i % n) = polynomial_part(forms[static_cast<std::size_t>(i)], point.epsilon);
   return obsgain::spectral_norm(M_inverse - P);
 }
 

@@ -82,6 +82,8 @@ class TaylorMatrix {
 
 // From a row-major array of forms: entries' remainders become a Frobenius bound of Δ.
 TaylorMatrix taylor_matrix(const Taylor* entries, int rows, int cols, int symbols);
+// The same over the forms' own symbols (the most any of them has).
+TaylorMatrix taylor_matrix(const std::vector<Taylor>& entries, int rows, int cols);
 
 // Σ_j weight_j X_j (each X_j of one size), with the rounding of the sums in the remainder; `frobenius`: the terms'
 // frobenius_upper(), computed once for the many combinations of the same terms. Where every term's entry_remainder is
@@ -151,11 +153,11 @@ double smallest_eigenvalue_lower(const TaylorMatrix& X);
 // second order), the second of norm <= c ||E K||² η / (1 - η) (the tail). `proven` is false when the box is too
 // wide for η < 1.
 struct TaylorInverse {
-  std::vector<Taylor> entries;
+  TaylorMatrix entries;
   double tail = 0.0;
   bool proven = false;
-  // The tail's factors, for tail_upper: Kᵀ E as forms, and c η / (1 - η).
-  std::vector<Taylor> KtE;
+  // The tail's factors, for tail_upper: Kᵀ E as a Taylor matrix, and c η / (1 - η).
+  TaylorMatrix KtE;
   double tail_factor = 0.0;
 };
 TaylorInverse inverse(const std::vector<Taylor>& M, int n, int symbols);
@@ -170,15 +172,17 @@ double tail_upper(const TaylorInverse& inverse, const Eigen::VectorXd& a, const 
 // monomial by monomial, which sees where the inner sums cancel and costs s pair_count(s) products of the factors'
 // coefficient matrices more (docs/theory.md, "Cubic terms of a product").
 enum class CubicTerms { by_sizes, by_monomials };
-// Row-major products of forms: (rows x inner) by (inner x cols), rounding included in the forms.
-std::vector<Taylor> product(const std::vector<Taylor>& A, const std::vector<Taylor>& B, int rows, int inner, int cols,
-                            CubicTerms cubic_terms = CubicTerms::by_sizes);
-// E E for n x n forms whose coefficient matrices are symmetric (E_ij and E_ji the same forms): each coefficient of the
+// Products of Taylor matrices whose entries' remainders are known (entry_remainder), over the symbols of both, rounding
+// included in the entries' remainders.
+TaylorMatrix product(const TaylorMatrix& A, const TaylorMatrix& B, CubicTerms cubic_terms = CubicTerms::by_sizes);
+// E E for a square E whose coefficient matrices are symmetric (E_ij and E_ji the same forms): each coefficient of the
 // product is S + Sᵀ for one matrix product S, the same products summed in the same order as `product` sums them, so
 // the same forms for half the matrix products.
-std::vector<Taylor> symmetric_square(const std::vector<Taylor>& E, int n, CubicTerms cubic_terms = CubicTerms::by_sizes);
-
-// An upper bound of max_ε ||X(ε)||_F for row-major forms: sqrt Σ (|c| + radius)², rounded up.
-double frobenius_upper(const std::vector<Taylor>& X);
+TaylorMatrix symmetric_square(const TaylorMatrix& E, CubicTerms cubic_terms = CubicTerms::by_sizes);
+// X = diag(a) X diag(b), entry by entry as a form is scaled (numerics/taylor.hpp, scale_into), a first: by 0 and ±1
+// exactly, else each product's rounding in the entry's remainder.
+void scale_diagonally(TaylorMatrix& X, const Eigen::VectorXd& a, const Eigen::VectorXd& b);
+// The given columns of X, in that order, with their entries' remainders.
+TaylorMatrix columns_of(const TaylorMatrix& X, const std::vector<int>& columns);
 
 }  // namespace obsgain
