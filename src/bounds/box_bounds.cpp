@@ -277,10 +277,10 @@ BoxCosts box_costs(int n, int symbols, const CountedModel& model) {
   // it can tell from below will not be the smaller: the step takes 0.81-0.94 of the forty-first's time (a mean of
   // 0.88). A vertex's combination is formed by halves: the vertex step takes 0.50-0.64 of its instructions without
   // friction (where it forms no envelope either) and 0.85-0.92 with it (docs/history.md, the forty-second round).
-  // Since the forty-third, M⁻¹'s series and M⁻¹ [J F] stay Taylor matrices, without forms between the products: the
-  // step takes 0.876-0.941 of its instructions (a mean of 0.91) on the UR5 with armature, arm7 and the iiwa. A failed
-  // M⁻¹ stops before E² and the products.
-  constexpr double symmetric_products = 0.8 * 0.88 * 0.91;
+  // Since the forty-third, M⁻¹'s series and M⁻¹ [J F] stay Taylor matrices, without forms between the products, and
+  // [J F] is gathered from the J_j: the step takes 0.827-0.906 of its instructions (a mean of 0.87) on the UR5 with
+  // armature, arm7 and the iiwa. A failed M⁻¹ stops before E² and the products.
+  constexpr double symmetric_products = 0.8 * 0.88 * 0.87;
   const double vertex_halves = model.frictionless ? 0.6 : 0.9;
   return {.inertia = 0.75e-6 * n3,
           .forms = forms,
@@ -391,26 +391,25 @@ LipschitzTerms lipschitz_terms(const Model& model, const BoxForms& d, const std:
   const int n = d.n, blocks = n + 1;
   std::vector<Taylor> F(static_cast<std::size_t>(n * n));
   for (int i = 0; i < n * n; ++i) F[i] = Taylor(model.friction(i / n, i % n));
+  const TaylorMatrix friction = taylor_matrix(F.data(), n, n, d.symbols);
   // M⁻¹ [J_1 ... J_n F] in one product: its coefficients are then matrix products. Column k of J_j is column j of
   // J_k, (J_j)_ik = 2 N_i[j][k], the same forms (box_forms mirrors N), and a product's column depends only on the
   // same column of its right factor: the product takes the columns with j <= k once, n(n + 1)/2 of the n² (and F's n).
-  const int unique = n * (n + 1) / 2, cols = unique + n;
+  const int unique = n * (n + 1) / 2;
   const auto column = [n, unique](int j, int k) {
     if (j == n) return unique + k;  // F's
     const int low = std::min(j, k), high = std::max(j, k);
     return low * n - low * (low - 1) / 2 + (high - low);
   };
-  std::vector<Taylor> JF(static_cast<std::size_t>(n * cols));
-  for (int i = 0; i < n; ++i) {
-    for (int j = 0; j < n; ++j)
-      for (int k = j; k < n; ++k) JF[static_cast<std::size_t>(i * cols + column(j, k))] = 2.0 * d.N[(i * n + j) * n + k];
-    for (int k = 0; k < n; ++k) JF[static_cast<std::size_t>(i * cols + column(n, k))] = F[static_cast<std::size_t>(i * n + k)];
-  }
-  const TaylorMatrix X = product(inverse_M.entries, taylor_matrix(JF, n, cols));
-  std::vector<int> columns(static_cast<std::size_t>(n));
+  std::vector<std::pair<const TaylorMatrix*, int>> distinct;
+  for (int j = 0; j < n; ++j)
+    for (int k = j; k < n; ++k) distinct.emplace_back(&J[static_cast<std::size_t>(j)], k);
+  for (int k = 0; k < n; ++k) distinct.emplace_back(&friction, k);
+  const TaylorMatrix X = product(inverse_M.entries, gathered_columns(distinct));
+  std::vector<std::pair<const TaylorMatrix*, int>> block(static_cast<std::size_t>(n));
   for (int j = 0; j < blocks; ++j) {
-    for (int k = 0; k < n; ++k) columns[static_cast<std::size_t>(k)] = column(j, k);
-    TaylorMatrix term = columns_of(X, columns);
+    for (int k = 0; k < n; ++k) block[static_cast<std::size_t>(k)] = {&X, column(j, k)};
+    TaylorMatrix term = gathered_columns(block);
     if (diagonal) scale_diagonally(term, scaling->rows.diagonal(), scaling->columns.diagonal());
     if (term.symbols() < d.symbols) term = with_symbols(term, d.symbols);
     if (j < n)
@@ -423,7 +422,6 @@ LipschitzTerms lipschitz_terms(const Model& model, const BoxForms& d, const std:
     t.R = sandwiched(scaling->rows, t.R, scaling->columns);
   }
   const UpwardRounding upward;
-  const TaylorMatrix friction = taylor_matrix(F.data(), d.n, d.n, d.symbols);
   t.tail = (Interval(inverse_M.tail) * Interval(every_choice_upper(J, velocity_bounds, friction))).upper();
   if (scaling) t.tail = (Interval(t.tail) * Interval(scaling->stretch)).upper();
   if (diagonal)

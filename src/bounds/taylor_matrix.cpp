@@ -1129,18 +1129,28 @@ void scale_diagonally(TaylorMatrix& X, const Eigen::VectorXd& a, const Eigen::Ve
   scale_entries(X, b.transpose().colwise().replicate(X.rows()));
 }
 
-TaylorMatrix columns_of(const TaylorMatrix& X, const std::vector<int>& columns) {
+TaylorMatrix gathered_columns(const std::vector<std::pair<const TaylorMatrix*, int>>& columns) {
+  const TaylorMatrix& first = *columns.front().first;
   TaylorMatrix Y;
-  Y.shape(X.rows(), static_cast<Eigen::Index>(columns.size()), X.symbols());
-  Y.entry_remainder.resize(X.rows(), Y.cols());
-  const Eigen::Index rows = X.rows();
-  for (int t = 0; t < X.parts(); ++t) {
-    const double* from = X.part(t).data();
-    double* to = Y.part(t).data();
-    for (std::size_t k = 0; k < columns.size(); ++k) std::copy_n(from + columns[k] * rows, rows, to + k * rows);
+  Y.shape(first.rows(), static_cast<Eigen::Index>(columns.size()), first.symbols());
+  Y.entry_remainder.resize(Y.rows(), Y.cols());
+  const Eigen::Index rows = Y.rows();
+  for (std::size_t k = 0; k < columns.size();) {
+    const auto& [X, column] = columns[k];
+    if (X->rows() != rows || X->symbols() != Y.symbols())
+      throw std::logic_error("gathered_columns: the Taylor matrices' heights or symbols differ");
+    // Neighbouring columns of one matrix are copied as one block, part by part.
+    std::size_t run = 1;
+    const auto continues = [&](std::size_t r) {
+      return columns[k + r].first == X && columns[k + r].second == column + static_cast<int>(r);
+    };
+    while (k + run < columns.size() && continues(run)) ++run;
+    const auto count = static_cast<Eigen::Index>(run), to = static_cast<Eigen::Index>(k);
+    for (int t = 0; t < Y.parts(); ++t)
+      std::copy_n(X->part(t).data() + column * rows, count * rows, Y.part(t).data() + to * rows);
+    Y.entry_remainder.middleCols(to, count) = X->entry_remainder.middleCols(column, count);
+    k += run;
   }
-  for (std::size_t k = 0; k < columns.size(); ++k)
-    Y.entry_remainder.col(static_cast<Eigen::Index>(k)) = X.entry_remainder.col(columns[k]);
   Y.remainder = entries_frobenius(Y.entry_remainder);
   return Y;
 }

@@ -701,7 +701,7 @@ TEST(TaylorMatrices, SymmetricSquaresAndDistinctColumnsGiveTheProductsFormsToThe
 
 // M⁻¹'s series and M⁻¹ [J F]'s blocks stay Taylor matrices from M to the terms (docs/history.md, the forty-third
 // round); what they do to each entry is what the forms' own operations did, to the bit. diag(a) X diag(b) against
-// (x a_i) b_j form by form, with scales of 1, -1, 0 and others; the given columns against the forms moved.
+// (x a_i) b_j form by form, with scales of 1, -1, 0 and others; gathered columns against the forms moved.
 TEST(TaylorMatrices, DiagonalScalingAndColumnsAreTheFormsOperationsToTheBit) {
   std::mt19937_64 rng(31);
   std::normal_distribution<double> normal;
@@ -731,12 +731,23 @@ TEST(TaylorMatrices, DiagonalScalingAndColumnsAreTheFormsOperationsToTheBit) {
       const obsgain::Taylor expected = (forms[static_cast<std::size_t>(i * cols + j)] * a(i)) * b(j);
       EXPECT_TRUE(same(scaled[static_cast<std::size_t>(i * cols + j)], expected)) << i << "," << j;
     }
-  const std::vector<int> columns{3, 0, 3, 4};
+  // Columns of two matrices, with runs of neighbours: whole's 3 and 4, other's 0, whole's 0, other's 1 and 2, and
+  // whole's 3 again. A matrix of another height is refused.
   const obsgain::TaylorMatrix whole = obsgain::taylor_matrix(forms, rows, cols);
-  const std::vector<obsgain::Taylor> moved = entry_forms(obsgain::columns_of(whole, columns));
+  std::vector<obsgain::Taylor> other_forms = forms;
+  std::reverse(other_forms.begin(), other_forms.end());
+  const obsgain::TaylorMatrix other = obsgain::taylor_matrix(other_forms, rows, cols);
+  const std::vector<std::pair<const obsgain::TaylorMatrix*, int>> columns{{&whole, 3}, {&whole, 4}, {&other, 0},
+                                                                           {&whole, 0}, {&other, 1}, {&other, 2},
+                                                                           {&whole, 3}};
+  const std::vector<obsgain::Taylor> moved = entry_forms(obsgain::gathered_columns(columns));
   for (int i = 0; i < rows; ++i)
-    for (std::size_t k = 0; k < columns.size(); ++k)
-      EXPECT_TRUE(same(moved[i * columns.size() + k], forms[static_cast<std::size_t>(i * cols + columns[k])]));
+    for (std::size_t k = 0; k < columns.size(); ++k) {
+      const std::vector<obsgain::Taylor>& from = columns[k].first == &whole ? forms : other_forms;
+      EXPECT_TRUE(same(moved[i * columns.size() + k], from[static_cast<std::size_t>(i * cols + columns[k].second)]));
+    }
+  const obsgain::TaylorMatrix shorter = obsgain::taylor_matrix(forms, rows - 1, cols);
+  EXPECT_THROW(obsgain::gathered_columns({{&whole, 0}, {&shorter, 1}}), std::logic_error);
 }
 
 // A sum of products gathers its cubic terms across the sum before taking their moduli (docs/theory.md, "Cubic terms

@@ -182,7 +182,8 @@ TaylorMatrix symmetric_square(const TaylorMatrix& E, CubicTerms cubic_terms = Cu
 // X = diag(a) X diag(b), entry by entry as a form is scaled (numerics/taylor.hpp, scale_into), a first: by 0 and ±1
 // exactly, else each product's rounding in the entry's remainder.
 void scale_diagonally(TaylorMatrix& X, const Eigen::VectorXd& a, const Eigen::VectorXd& b);
-// The given columns of X, in that order, with their entries' remainders.
-TaylorMatrix columns_of(const TaylorMatrix& X, const std::vector<int>& columns);
+// Columns of Taylor matrices of one height and one count of symbols, (matrix, column) in the order given, side by
+// side with their entries' remainders.
+TaylorMatrix gathered_columns(const std::vector<std::pair<const TaylorMatrix*, int>>& columns);
 
 }  // namespace obsgain
