@@ -848,6 +848,9 @@ void second_order_parts(const TaylorMatrix& a, const TaylorMatrix& b, bool squar
 // within γ_{4 inner} Σ_m total(A)_im total(B)_mj, and their underflow (at most 4 · 8 · 120 products of 2⁻¹⁰⁷⁴ per
 // entry) within the 2⁻¹⁰⁶⁰ that up() adds.
 TaylorMatrix product_of(const TaylorMatrix& A, const TaylorMatrix& B, CubicTerms cubic_terms, bool square) {
+  for (const TaylorMatrix* X : {&A, &B})
+    if (X->entry_remainder.rows() != X->rows() || X->entry_remainder.cols() != X->cols())
+      throw std::logic_error("product: a factor's entries' remainders are not known");
   const int symbols = std::max(A.symbols(), B.symbols());
   const auto inner = static_cast<int>(A.cols());
   TaylorMatrix padded_a, padded_b;

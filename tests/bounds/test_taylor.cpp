@@ -701,7 +701,8 @@ TEST(TaylorMatrices, SymmetricSquaresAndDistinctColumnsGiveTheProductsFormsToThe
 
 // M⁻¹'s series and M⁻¹ [J F]'s blocks stay Taylor matrices from M to the terms (docs/history.md, the forty-third
 // round); what they do to each entry is what the forms' own operations did, to the bit. diag(a) X diag(b) against
-// (x a_i) b_j form by form, with scales of 1, -1, 0 and others; gathered columns against the forms moved.
+// (x a_i) b_j form by form, with scales of 1, -1, 0 and others; gathered columns against the forms moved. A product
+// refuses a factor whose entries' remainders it does not know.
 TEST(TaylorMatrices, DiagonalScalingAndColumnsAreTheFormsOperationsToTheBit) {
   std::mt19937_64 rng(31);
   std::normal_distribution<double> normal;
@@ -748,6 +749,11 @@ TEST(TaylorMatrices, DiagonalScalingAndColumnsAreTheFormsOperationsToTheBit) {
     }
   const obsgain::TaylorMatrix shorter = obsgain::taylor_matrix(forms, rows - 1, cols);
   EXPECT_THROW(obsgain::gathered_columns({{&whole, 0}, {&shorter, 1}}), std::logic_error);
+  // A product needs each entry's remainder: a combination, which keeps only their norm, is refused as a factor.
+  const obsgain::TaylorMatrix combined = obsgain::linear_combination({whole, whole}, Eigen::Vector2d(0.5, 0.5),
+                                                                     obsgain::frobenius_uppers({whole, whole}));
+  ASSERT_EQ(combined.entry_remainder.size(), 0);
+  EXPECT_THROW(obsgain::product(combined, obsgain::taylor_matrix(forms, cols, rows)), std::logic_error);
 }
 
 // A sum of products gathers its cubic terms across the sum before taking their moduli (docs/theory.md, "Cubic terms

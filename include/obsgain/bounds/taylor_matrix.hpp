@@ -172,8 +172,8 @@ double tail_upper(const TaylorInverse& inverse, const Eigen::VectorXd& a, const 
 // monomial by monomial, which sees where the inner sums cancel and costs s pair_count(s) products of the factors'
 // coefficient matrices more (docs/theory.md, "Cubic terms of a product").
 enum class CubicTerms { by_sizes, by_monomials };
-// Products of Taylor matrices whose entries' remainders are known (entry_remainder), over the symbols of both, rounding
-// included in the entries' remainders.
+// Products of Taylor matrices whose entries' remainders are known (entry_remainder; std::logic_error otherwise), over
+// the symbols of both, rounding included in the entries' remainders.
 TaylorMatrix product(const TaylorMatrix& A, const TaylorMatrix& B, CubicTerms cubic_terms = CubicTerms::by_sizes);
 // E E for a square E whose coefficient matrices are symmetric (E_ij and E_ji the same forms): each coefficient of the
 // product is S + Sᵀ for one matrix product S, the same products summed in the same order as `product` sums them, so
