@@ -855,7 +855,8 @@ TaylorMatrix product_of(const TaylorMatrix& A, const TaylorMatrix& B, CubicTerms
   const auto inner = static_cast<int>(A.cols());
   TaylorMatrix padded_a, padded_b;
   const CoefficientMatrices a = coefficient_matrices(over_symbols(A, symbols, padded_a));
-  const CoefficientMatrices b = coefficient_matrices(over_symbols(B, symbols, padded_b));
+  // E E's second factor is its first: its sizes are taken once.
+  const CoefficientMatrices b = square ? a : coefficient_matrices(over_symbols(B, symbols, padded_b));
   // S + Sᵀ is A A only for symmetric coefficient matrices: anything else would be an unsound product.
   for (int t = 0; square && t < a.X.parts(); ++t)
     if (!(a.X.part(t).array() == a.X.part(t).transpose().array()).all())
@@ -1159,11 +1160,10 @@ TaylorMatrix gathered_columns(const std::vector<std::pair<const TaylorMatrix*, i
 }
 
 double tail_upper(const TaylorInverse& inverse, const Eigen::VectorXd& a, const Eigen::VectorXd& b, int symbols) {
-  const Eigen::VectorXd ones = Eigen::VectorXd::Ones(a.size());
   TaylorMatrix padded;
   const auto norm = [&](const Eigen::VectorXd& d) {
     TaylorMatrix X = inverse.KtE;
-    scale_diagonally(X, d, ones);
+    scale_entries(X, d.rowwise().replicate(X.cols()));  // diag(d) Kᵀ E
     return inverse_norm_upper(over_symbols(X, symbols, padded));
   };
   const double Ka = norm(a), Kb = norm(b);
