@@ -86,7 +86,7 @@ int main(int argc, char** argv) {
     fmt::print("| {} | {:.4g} ({:.1f} s) | {} ({:.0f} s) | {} | {}{:.6g} | {} |\n", arm.label, theta_numeric,
                numeric.seconds, theta_certified, certified.seconds,
                certified.design.unfinished.empty()
-                   ? fmt::format("{:.2f}", certified.design.selected().observer.theta / theta_numeric)
+                   ? fmt::format("{:.3f}", certified.design.selected().observer.theta / theta_numeric)
                    : "-",
                scaled ? "L_T " : "", L.lower, upper);
     std::fflush(stdout);

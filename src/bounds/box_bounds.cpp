@@ -523,8 +523,13 @@ std::vector<Eigen::VectorXd> enumerated_vertices(const Eigen::VectorXd& V, const
   return vertices;
 }
 
+// variation_norm_upper's time against a fine bound's (norm_upper) of the same Taylor matrix: the mean of twelve ratios,
+// 0.020-0.064, on random ones of n = 6 and 7, 6-14 rows and 4-12 symbols (docs/history.md, the forty-fourth round).
+constexpr double kVariationShare = 0.047;
+
 // The maximum over the vertices w and the saturation patterns D of ||A(w) D + R||, vertex by vertex in decreasing order
-// of the envelope's cheap bound: the envelope's centre tested (Cholesky), then its fine bound; the patterns one by one
+// of the envelope's cheap bound: the envelope's centre tested (Cholesky; the variation's norm the smaller of the parts'
+// Frobenius norms added and variation_norm_upper), then its fine bound; the patterns one by one
 // (patterns_upper) only where what the envelope adds at the centre, at most ||R||² / (2 ||Aw + R||), is a tenth or
 // more of what its fine bound leaves above the centre's norm (near the end of a search; the arms measured lose
 // 0.04 % to 0.8 % to the envelope at a point, docs/theory.md).
@@ -558,8 +563,8 @@ double choices_upper(const LipschitzTerms& t, const BoxForms& d, const VelocityC
   const double upper = refine_choices(choices, lower, [&](const Choice& choice, double floor) {
     const VertexEnvelope& e = vertices[choice.vertex];
     const TaylorMatrix::ConstPart C = e.bounded().centre();
-    const double size = C.norm();
-    if (centre_norm_below(C.transpose() * C, floor - choice.variation, size * size)) return floor;
+    const double size = C.norm(), variation = std::min(choice.variation, e.bounded().variation_norm_upper());
+    if (centre_norm_below(C.transpose() * C, floor - variation, size * size)) return floor;
     ++full;
     const double fine = norm_upper(e.bounded(), floor);
     if (v.counted.frictionless || fine <= floor) return fine;
@@ -568,8 +573,10 @@ double choices_upper(const LipschitzTerms& t, const BoxForms& d, const VelocityC
     if (added < 0.1 * (fine - sigma)) return fine;
     return std::min(fine, patterns_upper(e.Aw, e.Aw_frobenius, R, floor, costs, work));
   }, refined);
-  // A centre test per vertex refined; an envelope (2n x n with friction) costs two n x n refinements.
-  work += refined * costs.choice + full * costs.refinement * (v.counted.frictionless ? 1.0 : 2.0);
+  // A centre test per vertex refined, with its variation's norm; an envelope (2n x n with friction) costs two n x n
+  // refinements.
+  const double envelope = v.counted.frictionless ? 1.0 : 2.0;
+  work += refined * (costs.choice + kVariationShare * envelope * costs.refinement) + full * costs.refinement * envelope;
   return upper;
 }
 

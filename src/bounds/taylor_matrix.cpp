@@ -114,6 +114,15 @@ Eigen::MatrixXd TaylorMatrix::spread() const {
   return s;
 }
 
+double TaylorMatrix::variation_norm_upper() const {
+  const UpwardRounding upward;  // sums and products of non-negative terms, rounded up
+  Eigen::MatrixXd moduli = Eigen::MatrixXd::Zero(rows(), cols());
+  for (int t = 1; t < parts(); ++t) moduli += part(t).cwiseAbs();
+  const Eigen::MatrixXd gram = rows() >= cols() ? Eigen::MatrixXd(moduli.transpose() * moduli)
+                                                : Eigen::MatrixXd(moduli * moduli.transpose());
+  return up(std::sqrt(perron_upper(gram)) + remainder);
+}
+
 double every_choice_upper(const std::vector<TaylorMatrix>& X, const Eigen::VectorXd& V, const TaylorMatrix& R,
                           const Eigen::VectorXd& rows, const Eigen::VectorXd& columns) {
   const UpwardRounding upward;
@@ -121,7 +130,9 @@ double every_choice_upper(const std::vector<TaylorMatrix>& X, const Eigen::Vecto
   for (std::size_t j = 0; j < X.size(); ++j)
     E += std::abs(V(static_cast<Eigen::Index>(j))) * (X[j].centre().cwiseAbs() + X[j].spread());
   if (rows.size()) E = rows.asDiagonal() * E * columns.asDiagonal();  // products of positive numbers, rounded up
-  return frobenius(E);
+  // ||E||₂ from the Perron root of EᵀE, never above ||E||_F mathematically; the smaller of the two proven bounds.
+  const Eigen::MatrixXd gram = E.transpose() * E;
+  return std::min(frobenius(E), up(std::sqrt(perron_upper(gram))));
 }
 
 TaylorMatrix taylor_matrix(const Taylor* entries, int rows, int cols, int symbols) {

@@ -44,6 +44,16 @@ bool encloses(const obsgain::Taylor& x, const std::vector<double>& epsilon, doub
   return std::abs(value - polynomial_part(x, epsilon)) <= x.r + slack;
 }
 
+// X(ε) without its remainder.
+Eigen::MatrixXd polynomial_at(const obsgain::TaylorMatrix& X, const std::vector<double>& e) {
+  Eigen::MatrixXd Y = X.centre();
+  for (int k = 0; k < X.symbols(); ++k) Y += e[static_cast<std::size_t>(k)] * X.slope(k);
+  for (int k = 0; k < X.symbols(); ++k)
+    for (int l = k; l < X.symbols(); ++l)
+      Y += e[static_cast<std::size_t>(k)] * e[static_cast<std::size_t>(l)] * X.curvature(obsgain::kPairs.index[k][l]);
+  return Y;
+}
+
 // Row-major forms of a Taylor matrix's entries, each with its entry's remainder.
 std::vector<obsgain::Taylor> entry_forms(const obsgain::TaylorMatrix& X) {
   std::vector<obsgain::Taylor> forms;
@@ -417,6 +427,96 @@ TEST(TaylorMatrices, PatternEnvelopeRemainderIsAttained) {
   attained.bottomRows(3) = (Y.remainder * u * v.transpose()).transpose();
   EXPECT_GE(envelope.remainder, obsgain::spectral_norm(attained));
   EXPECT_NEAR(envelope.remainder, std::sqrt(2.05), 1e-12);
+}
+
+// The variation's norm from the parts' moduli (TaylorMatrix::variation_norm_upper) bounds ||X(ε) − C||₂ at random
+// points and corners of the box; it is exact where the parts are one rank-one matrix of non-negative vectors (the
+// corner of the slopes' signs attains it), and where each part sits in its own row and column it is the largest part,
+// not the sum of their Frobenius norms that the centre's cheap test used before (docs/theory.md, "Cheap bounds of the
+// choices").
+TEST(TaylorMatrices, VariationNormBoundsEveryMemberAndSeesSpreadParts) {
+  std::mt19937_64 rng(44);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  const auto variation_at = [](const obsgain::TaylorMatrix& X, const std::vector<double>& e) {
+    return obsgain::spectral_norm(polynomial_at(X, e) - X.centre());
+  };
+  for (int trial = 0; trial < 30; ++trial) {
+    const int cols = 2 + trial % 6, rows = cols * (1 + trial % 2), symbols = 1 + trial % 7;
+    obsgain::TaylorMatrix X(rows, cols, symbols);
+    for (int t = 0; t < X.parts(); ++t) X.part(t) = Eigen::MatrixXd::NullaryExpr(rows, cols, [&] { return unit(rng); });
+    X.remainder = 0.01 * (trial % 3);
+    const double bound = X.variation_norm_upper();
+    double frobenius_sum = X.remainder;
+    for (int t = 1; t < X.parts(); ++t) frobenius_sum += X.part(t).norm();
+    EXPECT_LE(bound, frobenius_sum * (1.0 + 1e-12)) << "trial " << trial;
+    for (int sample = 0; sample < 200; ++sample) {
+      std::vector<double> e(static_cast<std::size_t>(symbols));
+      for (double& x : e) x = sample % 2 ? unit(rng) : (unit(rng) < 0.0 ? -1.0 : 1.0);
+      EXPECT_LE(variation_at(X, e) + X.remainder, bound) << "trial " << trial << ", sample " << sample;
+    }
+  }
+  // One rank-one matrix u vᵀ (u, v >= 0) scaled by c_k in each slope: at ε_k = sign(c_k) the variation is
+  // Σ |c_k| ||u|| ||v||, and so is the bound, within the 1e-6 that keeps perron_upper's weights positive.
+  obsgain::TaylorMatrix one(4, 3, 3);
+  const Eigen::Vector4d u(0.5, 1.0, 0.0, 2.0);
+  const Eigen::Vector3d v(1.0, 0.25, 3.0);
+  const double c[3] = {0.7, -1.3, 0.2};
+  for (int k = 0; k < 3; ++k) one.slope(k) = c[k] * u * v.transpose();
+  const double attained = variation_at(one, {1.0, -1.0, 1.0});
+  EXPECT_NEAR(attained, 2.2 * u.norm() * v.norm(), 1e-12);
+  EXPECT_GE(one.variation_norm_upper(), attained);
+  EXPECT_LE(one.variation_norm_upper(), attained * (1.0 + 1e-5));
+  // Four parts, each one entry in its own row and column: the moduli are a scaled permutation, whose norm is the
+  // largest entry, 2.5, where the Frobenius norms add to 5.5.
+  obsgain::TaylorMatrix spread(4, 4, 2);  // two slopes and three curvatures; the last curvature stays zero
+  spread.slope(0)(0, 2) = -2.5;
+  spread.slope(1)(1, 0) = 1.0;
+  spread.curvature(0)(2, 3) = 1.5;
+  spread.curvature(1)(3, 1) = -0.5;
+  EXPECT_GE(spread.variation_norm_upper(), 2.5);
+  EXPECT_LE(spread.variation_norm_upper(), 2.5 * (1.0 + 1e-5));
+  EXPECT_NEAR(spread.frobenius_upper(), 5.5, 1e-9);
+}
+
+// Every choice at once (every_choice_upper): the spectral norm of Σ_j V_j |X_j| + |R| bounds
+// ||Σ_j w_j X_j(ε) D + R(ε)|| at random velocities, patterns and points of the box; on a scaled permutation it is the
+// largest entry (attained at w = V, D = I), where the moduli's Frobenius norm, the bound before, is √14 / 3 times that.
+TEST(TaylorMatrices, EveryChoiceBoundIsTheModuliSpectralNorm) {
+  std::mt19937_64 rng(45);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0), fraction(0.0, 1.0);
+  for (int trial = 0; trial < 20; ++trial) {
+    const int n = 2 + trial % 5, symbols = 1 + trial % 4;
+    const auto random_matrix = [&] {
+      obsgain::TaylorMatrix X(n, n, symbols);
+      for (int t = 0; t < X.parts(); ++t)
+        X.part(t) = Eigen::MatrixXd::NullaryExpr(n, n, [&] { return (t ? 0.2 : 1.0) * unit(rng); });
+      return X;
+    };
+    std::vector<obsgain::TaylorMatrix> X;
+    for (int j = 0; j < n; ++j) X.push_back(random_matrix());
+    const obsgain::TaylorMatrix R = random_matrix();
+    const Eigen::VectorXd V = Eigen::VectorXd::NullaryExpr(n, [&] { return 0.5 + fraction(rng); });
+    const double bound = obsgain::every_choice_upper(X, V, R);
+    for (int sample = 0; sample < 100; ++sample) {
+      std::vector<double> e(static_cast<std::size_t>(symbols));
+      for (double& x : e) x = unit(rng);
+      Eigen::MatrixXd Phi = polynomial_at(R, e);
+      const Eigen::VectorXd D = Eigen::VectorXd::NullaryExpr(n, [&] { return sample % 2 ? fraction(rng) : 1.0; });
+      for (int j = 0; j < n; ++j) {
+        const double w = sample % 3 ? V(j) * unit(rng) : V(j);
+        Phi += w * polynomial_at(X[static_cast<std::size_t>(j)], e) * D.asDiagonal();
+      }
+      EXPECT_LE(obsgain::spectral_norm(Phi), bound) << "trial " << trial << ", sample " << sample;
+    }
+  }
+  obsgain::TaylorMatrix permutation(3, 3, 1);
+  permutation.centre()(0, 1) = 1.0;
+  permutation.centre()(1, 2) = -2.0;
+  permutation.centre()(2, 0) = 3.0;
+  const double bound = obsgain::every_choice_upper({permutation}, Eigen::VectorXd::Constant(1, 2.0),
+                                                   obsgain::TaylorMatrix(3, 3, 1));
+  EXPECT_GE(bound, 6.0);
+  EXPECT_LE(bound, 6.0 * (1.0 + 1e-5));
 }
 
 // Every saturation pattern at once: ||A D + R|| <= ||[A + R, R]|| for every diagonal D in [0, 1]ⁿ (XXᵀ is convex in

@@ -73,6 +73,11 @@ class TaylorMatrix {
   double frobenius_upper() const;
   // |X(ε) - C| <= spread entrywise over the box, rounded up.
   Eigen::MatrixXd spread() const;
+  // An upper bound of ||X(ε) - C||₂ over the box: the polynomial's variation is at most Σ |G_k| + Σ |H_kl| entry by
+  // entry, and the spectral norm of a non-negative matrix bounds that of any matrix below it in moduli; its square is
+  // the Perron root of that matrix's Gram matrix (perron_upper). Plus the remainder. Where the parts' moduli spread
+  // over many entries it is far below their Frobenius norms' sum (docs/theory.md, "Cheap bounds of the choices").
+  double variation_norm_upper() const;
 
  private:
   Eigen::VectorXd coefficients_;
@@ -135,9 +140,10 @@ TaylorMatrix pattern_envelope(const TaylorMatrix& X, const TaylorMatrix& Y, doub
 TaylorMatrix sandwiched(const Eigen::MatrixXd& L, const TaylorMatrix& X, const Eigen::MatrixXd& R);
 
 // An upper bound of ||Σ_j w_j X_j D + R|| for every |w_j| <= V_j and diagonal D in [0, 1]ⁿ at once, from entry
-// moduli: Σ_j V_j |X_j| + |R| (each over the box) in Frobenius norm. No enumeration of vertices or patterns: the
-// cheap test that a box cannot beat a value attained elsewhere. With `rows` and `columns` (non-empty, positive), of
-// diag(rows) (Σ_j w_j X_j D + R) diag(columns) instead: the moduli scaled entry by entry.
+// moduli: the spectral norm of Σ_j V_j |X_j| + |R| (each over the box), which bounds that of every matrix below it in
+// moduli, by the Perron root of its Gram matrix (its Frobenius norm where that is smaller). No enumeration of vertices
+// or patterns: the cheap test that a box cannot beat a value attained elsewhere. With `rows` and `columns` (non-empty,
+// positive), of diag(rows) (Σ_j w_j X_j D + R) diag(columns) instead: the moduli scaled entry by entry.
 double every_choice_upper(const std::vector<TaylorMatrix>& X, const Eigen::VectorXd& V, const TaylorMatrix& R,
                           const Eigen::VectorXd& rows = {}, const Eigen::VectorXd& columns = {});
 
