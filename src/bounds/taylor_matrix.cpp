@@ -118,9 +118,7 @@ double TaylorMatrix::variation_norm_upper() const {
   const UpwardRounding upward;  // sums and products of non-negative terms, rounded up
   Eigen::MatrixXd moduli = Eigen::MatrixXd::Zero(rows(), cols());
   for (int t = 1; t < parts(); ++t) moduli += part(t).cwiseAbs();
-  const Eigen::MatrixXd gram = rows() >= cols() ? Eigen::MatrixXd(moduli.transpose() * moduli)
-                                                : Eigen::MatrixXd(moduli * moduli.transpose());
-  return up(std::sqrt(perron_upper(gram)) + remainder);
+  return up(nonnegative_norm_upper(moduli) + remainder);
 }
 
 double every_choice_upper(const std::vector<TaylorMatrix>& X, const Eigen::VectorXd& V, const TaylorMatrix& R,
@@ -130,9 +128,8 @@ double every_choice_upper(const std::vector<TaylorMatrix>& X, const Eigen::Vecto
   for (std::size_t j = 0; j < X.size(); ++j)
     E += std::abs(V(static_cast<Eigen::Index>(j))) * (X[j].centre().cwiseAbs() + X[j].spread());
   if (rows.size()) E = rows.asDiagonal() * E * columns.asDiagonal();  // products of positive numbers, rounded up
-  // ||E||₂ from the Perron root of EᵀE, never above ||E||_F mathematically; the smaller of the two proven bounds.
-  const Eigen::MatrixXd gram = E.transpose() * E;
-  return std::min(frobenius(E), up(std::sqrt(perron_upper(gram))));
+  // ||E||₂ is never above ||E||_F mathematically; the smaller of the two proven bounds.
+  return std::min(frobenius(E), up(nonnegative_norm_upper(E)));
 }
 
 TaylorMatrix taylor_matrix(const Taylor* entries, int rows, int cols, int symbols) {

@@ -41,6 +41,13 @@ double perron_upper(const Eigen::MatrixXd& B) {
   return std::isfinite(best) ? std::min(best, rows) : rows;
 }
 
+double nonnegative_norm_upper(const Eigen::MatrixXd& S) {
+  const UpwardRounding upward;
+  const Eigen::MatrixXd gram =
+      S.rows() >= S.cols() ? Eigen::MatrixXd(S.transpose() * S) : Eigen::MatrixXd(S * S.transpose());
+  return std::sqrt(perron_upper(gram));
+}
+
 double weighted_gershgorin_lower(const Eigen::VectorXd& d, const Eigen::MatrixXd& B) {
   const auto n = d.size();
   if (n == 0) return kInfinity;

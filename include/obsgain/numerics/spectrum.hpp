@@ -25,6 +25,9 @@ SymmetricEigen symmetric_eigen(const Eigen::MatrixXd& S);
 // rounding upward (B x of non-negative terms is then at least its exact value). Never above the largest row sum
 // (x = 1, Gershgorin's bound of B).
 double perron_upper(const Eigen::MatrixXd& B);
+// An upper bound of ||S||₂ for a non-negative S, so of ||A||₂ for every A with |A| <= S entry by entry
+// (uᵀAv <= |u|ᵀS|v|): the root of perron_upper of the smaller of SᵀS and SSᵀ, formed and rooted rounding upward.
+double nonnegative_norm_upper(const Eigen::MatrixXd& S);
 // A lower bound of λmin of every symmetric S with S_ii >= d_i and |S_ij| <= B_ij (i != j; B's diagonal not read): for
 // unit z, zᵀSz >= Σ d_i z_i² - |z|ᵀB|z| = t - |z|ᵀK|z| with t = max d_i and K = diag(t - d) + B off the diagonal, so
 // λmin >= t - ρ(max(K, Kᵀ)), bounded by perron_upper (a weighted Gershgorin bound; never below the plain one,
