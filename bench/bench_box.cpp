@@ -1,8 +1,9 @@
 // One box of the certified bounds' branch and bound (bounds/box_bounds.hpp), per arm: the time of L_joint's bound on
 // a box of the searched joints with every choice enumerated (no value attained to beat), single-threaded, beside what
 // the search counts for it (`counted_ms`, the budget's reference seconds for two cores: bounds/box_bounds.cpp,
-// box_costs). The count is fitted to run a quarter above half the time of a search's boxes on one core
-// (docs/theory.md, "The budget"). `width`: the box's share of every searched side; `symbols`: its forms' symbols.
+// box_costs). The count is fitted to run an eighth above half the time of a search's boxes on one core, each step of
+// a box alike (docs/theory.md, "The budget"). `width`: the box's share of every searched side; `symbols`: its forms'
+// symbols.
 // The loop bounds one box again and again, so the heap is empty between iterations: glibc would return its top to the
 // system every time and the next box fault its pages in again, which a search, whose queue keeps the heap in use, does
 // not pay (25-30 % of this loop's time on arm6, arm7 and the iiwa; the same counted search took the same wall time

@@ -253,10 +253,11 @@ BoxCosts box_costs(int n, int symbols, const CountedModel& model) {
   // vertex step in the eleventh by 0.85 (its time against the tenth's code at the same boxes on one machine: 0.79-0.84
   // on arm6, arm7 and the iiwa, 0.86-0.90 on the Panda), the Gram bound in the sixteenth and E²'s cubic terms in the
   // seventeenth on random forms of 2-7 rows and 2-12 symbols, scaled by the time of a box there against its count
-  // (1.9); the inertia step is an older fit's). The count runs a quarter ahead of that, so that a default design, whose
-  // numeric search comes first, ends within its budget on every arm measured (docs/theory.md, "The budget"). `terms`:
-  // a Taylor matrix's n x n parts (centre, slopes, curvatures).
-  constexpr double ahead = 1.25;
+  // (1.9); the inertia step is an older fit's). The count ran a quarter ahead of that until the forty-fifth round,
+  // which found a vertex's fine bounds taking about twice their count inside real searches: it now charges them what
+  // they take and runs an eighth ahead, so that arm7's box costs what it did and every step of a box is counted alike
+  // (docs/theory.md, "The budget"). `terms`: a Taylor matrix's n x n parts (centre, slopes, curvatures).
+  constexpr double ahead = 1.125;
   const double n1 = n, n2 = n1 * n1, n3 = n2 * n1, s = symbols, terms = 1.0 + s + pair_count(symbols);
   const double vertices = std::ldexp(1.0, model.frictionless ? n - 1 : n);
   const double gram = ahead * (0.27e-6 + 0.057e-9 * n2 * terms * terms);
@@ -281,15 +282,29 @@ BoxCosts box_costs(int n, int symbols, const CountedModel& model) {
   // [J F] is gathered from the J_j: the step takes 0.827-0.906 of its instructions (a mean of 0.87) on the UR5 with
   // armature, arm7 and the iiwa. A failed M⁻¹ stops before E² and the products.
   constexpr double symmetric_products = 0.8 * 0.88 * 0.87;
-  const double vertex_halves = model.frictionless ? 0.6 : 0.9;
+  // Since the forty-fifth round the choices' steps are timed inside real searches, apart from the rest of each box
+  // (docs/theory.md, "The budget"): a vertex's combination and envelope at 0.69 of the vertex fit without friction and
+  // 1.33 with it; its centre's test and fine bound at 2.1 times what they were charged (a choice, the variation's norm,
+  // a refinement of an n x n matrix, or two of an envelope's 2n x n) without friction and 1.7 times with it; a pattern's
+  // steps at 1.46 times. The variation's norm (variation_norm_upper) costs 0.047 of a fine bound: the mean of twelve
+  // ratios, 0.020-0.064, on random Taylor matrices of n = 6 and 7, 6-14 rows and 4-12 symbols (docs/history.md, the
+  // forty-fourth round).
+  const double vertex_time = model.frictionless ? 0.69 : 1.33, fine_time = model.frictionless ? 2.1 : 1.7;
+  const double envelope = model.frictionless ? 1.0 : 2.0;  // with friction a vertex's bound is its envelope's, 2n x n
+  constexpr double variation_share = 0.047, pattern_time = 1.46;
+  const double choice = ahead * (0.026e-6 + 2.45e-9 * n1 * terms);
   return {.inertia = 0.75e-6 * n3,
           .forms = forms,
           .products = symmetric_products * (products + cubic),
           .failed_inverse = 0.3 * products,
-          .vertex = vertex_halves * ahead * (0.33e-6 + 2.3e-9 * n2 * terms),
+          .vertex = vertex_time * ahead * (0.33e-6 + 2.3e-9 * n2 * terms),
           .refinement = refinement,
           .gram = gram,
-          .choice = ahead * (0.026e-6 + 2.45e-9 * n1 * terms),
+          .choice = choice,
+          .vertex_test = fine_time * (choice + variation_share * envelope * refinement),
+          .vertex_refinement = fine_time * envelope * refinement,
+          .pattern = pattern_time * choice,
+          .pattern_refinement = pattern_time * refinement,
           .point = ahead * (1.9e-6 + 2.8e-9 * vertices * n3),
           .jacobian_vertex = ahead * (0.36e-6 + 1.73e-9 * n2 * terms),
           .inertia_route = ahead * terms * (0.094e-6 + 0.27e-9 * n2 * (n2 + std::ldexp(1.0, n - 1)))};
@@ -458,7 +473,7 @@ double patterns_upper(const TaylorMatrix& A, double A_frobenius, const TaylorMat
     const PatternColumns::Sizes sizes = columns.pattern(bits);
     choices.push_back({(sizes.centre + sizes.variation) * kTaylorInflation, sizes.variation, 0u, bits});
   }
-  work += static_cast<double>(choices.size()) * costs.choice;
+  work += static_cast<double>(choices.size()) * costs.pattern;
   int refined = 0, full = 0;
   const double R_frobenius = R.frobenius_upper();
   TaylorMatrix X;  // the refined pattern's Φ, its storage reused
@@ -472,7 +487,7 @@ double patterns_upper(const TaylorMatrix& A, double A_frobenius, const TaylorMat
     scaled_sum(A, D, R, A_frobenius + R_frobenius, X);
     return norm_upper(X, above);
   }, refined);
-  work += refined * costs.choice + full * costs.refinement;
+  work += refined * costs.pattern + full * costs.pattern_refinement;
   return upper;
 }
 
@@ -523,10 +538,6 @@ std::vector<Eigen::VectorXd> enumerated_vertices(const Eigen::VectorXd& V, const
   return vertices;
 }
 
-// variation_norm_upper's time against a fine bound's (norm_upper) of the same Taylor matrix: the mean of twelve ratios,
-// 0.020-0.064, on random ones of n = 6 and 7, 6-14 rows and 4-12 symbols (docs/history.md, the forty-fourth round).
-constexpr double kVariationShare = 0.047;
-
 // The maximum over the vertices w and the saturation patterns D of ||A(w) D + R||, vertex by vertex in decreasing order
 // of the envelope's cheap bound: the envelope's centre tested (Cholesky; the variation's norm the smaller of the parts'
 // Frobenius norms added and variation_norm_upper), then its fine bound; the patterns one by one
@@ -573,10 +584,7 @@ double choices_upper(const LipschitzTerms& t, const BoxForms& d, const VelocityC
     if (added < 0.1 * (fine - sigma)) return fine;
     return std::min(fine, patterns_upper(e.Aw, e.Aw_frobenius, R, floor, costs, work));
   }, refined);
-  // A centre test per vertex refined, with its variation's norm; an envelope (2n x n with friction) costs two n x n
-  // refinements.
-  const double envelope = v.counted.frictionless ? 1.0 : 2.0;
-  work += refined * (costs.choice + kVariationShare * envelope * costs.refinement) + full * costs.refinement * envelope;
+  work += refined * costs.vertex_test + full * costs.vertex_refinement;
   return upper;
 }
 

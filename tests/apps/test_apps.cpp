@@ -350,7 +350,7 @@ TEST(DesignGainsApp, AWideProvenBracketIsNamedInAWarning) {
   EXPECT_NE(scaled.find("L_T's proven upper end"), std::string::npos) << scaled;
   // The two-link arm at this budget: L_T wins the race and is proven within 2 % (7.982 against 7.825), while L_joint
   // stopped after its first share at 8.8 times its value attained. The design rests on L_T: no warning.
-  const AppRun won = run("design-gains", "--robot " + examples + "/two_link_arm.json --gamma 5 --bound-budget 0.0025 --quiet --json");
+  const AppRun won = run("design-gains", "--robot " + examples + "/two_link_arm.json --gamma 5 --bound-budget 0.0024 --quiet --json");
   const std::string narrow = warnings(won);
   const nlohmann::json j = nlohmann::json::parse(won.out);
   EXPECT_EQ(j["certificate"], "scaled");
@@ -515,7 +515,7 @@ TEST(VerifyBoundsApp, WritesTheReportWithCertifiedBrackets) {
 TEST(VerifyBoundsApp, TheVerdictGivesTheGapOfTheConstantTheDesignUses) {
   const std::string out = ::testing::TempDir() + "/obsgain_verify_gap";
   const AppRun r = run("verify-bounds", "--robot " + std::string(OBSGAIN_EXAMPLES_DIR) +
-                                            "/two_link_arm.json --gamma 5 --bound-budget 0.0025 --trials 4 --quiet --out " + out);
+                                            "/two_link_arm.json --gamma 5 --bound-budget 0.0024 --trials 4 --quiet --out " + out);
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const std::string html = read_text(out + "/report.html");
   // With the proof's price: the same certificate on L_T's attained value (Design::AtAttained).

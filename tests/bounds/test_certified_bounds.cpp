@@ -533,7 +533,7 @@ TEST(LipschitzRace, TheLowerUpperEndGoesOnAsOneSearchWould) {
   obsgain::BoundReport pendubot_numeric = obsgain::compute_bounds(pendubot_model(), Eigen::Vector2d(10, 10));
   ASSERT_TRUE(pendubot_numeric.scaled());
   for (const auto& [model, numeric, budget] :
-       {std::tuple{&arm, &arm_numeric, 0.1}, {&pendubot_model(), &pendubot_numeric, 0.0065}}) {
+       {std::tuple{&arm, &arm_numeric, 0.1}, {&pendubot_model(), &pendubot_numeric, 0.0058}}) {
     obsgain::CertifiedOptions options;
     options.budget_seconds = budget;
     const obsgain::CertifiedBounds race = *obsgain::certify_bounds(*model, *numeric, options);
@@ -544,7 +544,7 @@ TEST(LipschitzRace, TheLowerUpperEndGoesOnAsOneSearchWould) {
     const obsgain::BoundBracket& other = scaled_leads ? race.L_joint : *race.L_scaled;
     const double part = 0.95 * budget, first = options.race_share * part;
     EXPECT_EQ(other.stop, obsgain::SearchStop::race);
-    EXPECT_EQ(leader.stop, obsgain::SearchStop::budget);
+    EXPECT_EQ(leader.stop, obsgain::SearchStop::budget) << model->name;
     EXPECT_GE(other.work, first);
     EXPECT_LE(other.work, 1.5 * first);  // at most a round past it
     EXPECT_GE(leader.work, part - other.work);
@@ -668,7 +668,7 @@ TEST(CertifiedBrackets, ALowerEndAboveAnUpperEndLoweredByAnotherBoundIsClamped) 
 // how a box is bounded or split, or to the work it counts, moves these (to the last digits at least): when this
 // fails, raise kSearchRules in bounds/search_journal.hpp with the new values, so that older checkpoints are refused.
 TEST(SearchRules, PinTheBoxBoundsTheirNumberStandsFor) {
-  ASSERT_EQ(obsgain::kSearchRules, 27) << "raised: re-pin the values below from this version";
+  ASSERT_EQ(obsgain::kSearchRules, 28) << "raised: re-pin the values below from this version";
   const obsgain::Model arm = obsgain::load_robot({examples + "/arm3.urdf"});
   const obsgain::JointSearch search = obsgain::joint_search(arm, obsgain::configuration_joints(arm));
   const obsgain::BoxBounds boxes(arm, search, arm.velocity_bounds);
@@ -681,12 +681,12 @@ TEST(SearchRules, PinTheBoxBoundsTheirNumberStandsFor) {
     const auto widest = std::max_element(b.split_weight.begin(), b.split_weight.end()) - b.split_weight.begin();
     EXPECT_EQ(static_cast<std::size_t>(widest), side);
   };
-  expect_pinned(boxes.inverse_inertia(box), 88.675365050774261, 0, 2.1713125000000002e-05);
-  expect_pinned(boxes.jacobian(box, 0.0), 0.98471185757308977, 1, 6.9822999999999985e-05);
-  expect_pinned(boxes.joint_lipschitz(box, 0.0), 27.283913051800436, 0, 0.00010543127526720011);
+  expect_pinned(boxes.inverse_inertia(box), 88.675365050774261, 0, 2.1566812500000002e-05);
+  expect_pinned(boxes.jacobian(box, 0.0), 0.98471185757308977, 1, 6.2840699999999983e-05);
+  expect_pinned(boxes.joint_lipschitz(box, 0.0), 27.283913051800436, 0, 0.0001105915677904801);
   // L_T's, for a diagonal T.
   const obsgain::BoxBounds scaled(arm, search, arm.velocity_bounds, Eigen::Vector3d(1.0, 3.0, 0.3).asDiagonal());
-  expect_pinned(scaled.joint_lipschitz(box, 0.0), 51.63299995145718, 1, 9.3889957767200071e-05);
+  expect_pinned(scaled.joint_lipschitz(box, 0.0), 51.63299995145718, 1, 9.4048992015480061e-05);
 }
 
 // The count sees where the bodies' centres of mass sit (box_bounds.hpp, CountedModel): a coordinate of zero spares the

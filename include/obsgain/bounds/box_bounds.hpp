@@ -30,6 +30,11 @@ struct BoxCosts {
   double refinement;  // one fine norm or eigenvalue bound of an n x n form
   double gram;        // one norm bound of an n x n form from its parts' Gram matrix (M⁻¹'s series takes two)
   double choice;      // one pattern's cheap bound, or a centre's Cholesky test
+  // Where the choices are enumerated (choices_upper), timed apart from the rest of a box (docs/theory.md, "The budget"):
+  double vertex_test;        // a velocity vertex's centre test, with its variation's norm
+  double vertex_refinement;  // a velocity vertex's fine norm bound (its envelope's, with friction)
+  double pattern;            // one saturation pattern's cheap bound or centre test, where they are taken one by one
+  double pattern_refinement;  // one saturation pattern's fine norm bound
   double point;       // the value attained at a point (every vertex and pattern, in double)
   double jacobian_vertex;  // one vertex's J(w) = Σ_j w_j J_j and its cheap bound (B's search)
   double inertia_route;    // the cheap bounds of J(w) at every vertex at once (the inertia floor's route)
