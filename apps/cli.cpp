@@ -23,12 +23,18 @@ namespace obsgain {
 double parse_number(const std::string& name, const std::string& text) {
   const char* begin = text.c_str();
   char* end = nullptr;
+  errno = 0;
   const double value = std::strtod(begin, &end);
+  const bool out_of_range = errno == ERANGE;
   // Decimal only: strtod would also take "0x10" (16) and "infinity".
   const bool decimal = text.find_first_of("xXpP") == std::string::npos && text.find_first_not_of("0123456789+-.eE") == std::string::npos;
   if (text.empty() || end == begin || *end != '\0' || !decimal)
     throw InputError(fmt::format("{} = '{}' is not a decimal number", name, text.substr(0, 40)));
   if (!std::isfinite(value)) throw InputError(fmt::format("{} = {} must be finite", name, text));
+  // A value too small for a normal double: strtod returns 0 or a subnormal, which would be used in its place.
+  if (out_of_range)
+    throw InputError(fmt::format("{} = {} is below the smallest normal double (2.2e-308) in magnitude: give 0 or a "
+                                 "larger value", name, text.substr(0, 40)));
   return value;
 }
 

@@ -85,6 +85,9 @@ TEST(DesignGainsApp, RefusesValuesOutsideTheAdmissibleRanges) {
   expect_refused("--theta 1e300", "--theta = 1e+300 must lie in");
   expect_refused("--theta 1e-300", "--theta = 1e-300 must lie in");
   expect_refused("--gamma 0x10", "--gamma = '0x10' is not a decimal number");
+  // Below the smallest double it named 0, the value read in its place: it names what was typed.
+  expect_refused("--gamma 5e-400", "--gamma = 5e-400 is below the smallest normal double (2.2e-308) in magnitude");
+  expect_refused("--gamma 1 --vmax 1,1e-320", "--vmax = 1e-320 is below the smallest normal double");
   expect_refused("--gamma \"\" --theta 10", "--gamma = '' is empty");
   expect_refused("--gamma 1 --vmax \"\"", "--vmax = '' is empty");
   expect_refused("--gamma 1 --vmax 1e300,1e300", "V1 = 1e+300 (--vmax) must lie in");
