@@ -100,6 +100,25 @@ void TaylorMatrix::shape(Eigen::Index rows, Eigen::Index cols, int symbols) {
     for (int t = 0; t < parts(); ++t) coefficients_(t * stride_ + stride_ - 1) = 0.0;
 }
 
+namespace {
+
+// Each part's Frobenius norm, rounded up (the centre's first).
+Eigen::VectorXd part_frobenius(const TaylorMatrix& X) {
+  Eigen::VectorXd norms(X.parts());
+  for (int t = 0; t < X.parts(); ++t) norms(t) = frobenius(X.part(t));
+  return norms;
+}
+
+// TaylorMatrix::frobenius_upper from the parts' norms, summed in its order (the same bits): for a caller that needs
+// the norms themselves too.
+double frobenius_upper(const Eigen::VectorXd& part_norms, double remainder) {
+  double bound = part_norms(0) + remainder;
+  for (Eigen::Index t = 1; t < part_norms.size(); ++t) bound += part_norms(t);
+  return up(bound);
+}
+
+}  // namespace
+
 double TaylorMatrix::frobenius_upper() const {
   double bound = frobenius(centre()) + remainder;
   for (int t = 1; t < parts(); ++t) bound += frobenius(part(t));
@@ -484,16 +503,18 @@ struct BasisTerms {
   }
 };
 
-BasisTerms in_basis(const TaylorMatrix& X, const Eigen::MatrixXd& V) {
-  const double V_frobenius = frobenius(V);
+// `part_norms`: part_frobenius(X).
+BasisTerms in_basis(const TaylorMatrix& X, const Eigen::VectorXd& part_norms, const Eigen::MatrixXd& V) {
+  const double V_frobenius = frobenius(V), rounding = gamma(static_cast<int>(X.cols()));
   const Eigen::Index n = V.cols(), rows = X.rows(), count = X.parts() - 1;
+  // Each part's product rounded within product_rounding(part, V): γ_cols ||part||_F ||V||_F, rounded up.
   BasisTerms t{X.centre() * V, Eigen::MatrixXd(rows, n * count), X.symbols(), X.curvature_count(),
-               product_rounding(X.centre(), V_frobenius)};
+               up(rounding * part_norms(0) * V_frobenius)};
   // The parts one below the other, multiplied by V at once, then side by side.
   Eigen::MatrixXd stacked(rows * count, X.cols());
   for (Eigen::Index part = 0; part < count; ++part) {
     stacked.middleRows(part * rows, rows) = X.part(static_cast<int>(part + 1));
-    t.rho += product_rounding(X.part(static_cast<int>(part + 1)), V_frobenius);
+    t.rho += up(rounding * part_norms(part + 1) * V_frobenius);
   }
   Eigen::MatrixXd products(stacked.rows(), n);  // column by column: one long product each, no blocking for an n of 2-8
   for (Eigen::Index j = 0; j < n; ++j) products.col(j).noalias() = stacked * V.col(j);
@@ -594,7 +615,11 @@ Eigen::MatrixXd gathered_gram_bounds(const BasisTerms& t, const Eigen::MatrixXd&
   const Eigen::Index n = t.n(), m = t.slopes;
   const auto pairs = symbol_pairs(t.slopes);
   const auto slopes = t.parts.leftCols(n * m);
-  const Eigen::MatrixXd by_slopes = slopes.transpose() * slopes;  // ĝ_ik·ĝ_jl at (k n + i, l n + j)
+  // ĝ_ik·ĝ_jl at (k n + i, l n + j), the lower triangle only (read through `slope_product`): half the products.
+  Eigen::MatrixXd by_slopes(n * m, n * m);
+  by_slopes.triangularView<Eigen::Lower>().setZero();
+  by_slopes.selfadjointView<Eigen::Lower>().rankUpdate(slopes.transpose());
+  const auto slope_product = [&](Eigen::Index a, Eigen::Index b) { return a >= b ? by_slopes(a, b) : by_slopes(b, a); };
   const Eigen::MatrixXd P = t.C.transpose() * t.C;
   const int inner = 4 * static_cast<int>(t.C.rows()) + 4;
   const UpwardRounding upward;
@@ -607,8 +632,8 @@ Eigen::MatrixXd gathered_gram_bounds(const BasisTerms& t, const Eigen::MatrixXd&
       for (Eigen::Index k = 0; k < m; ++k) sum += std::abs(Q(k * n + i, j) + Q(k * n + j, i));
       for (std::size_t p = 0; p < pairs.size(); ++p) {
         const Eigen::Index k = pairs[p].first, l = pairs[p].second, row = (m + static_cast<Eigen::Index>(p)) * n;
-        double coefficient = Q(row + i, j) + Q(row + j, i) + by_slopes(k * n + i, l * n + j);
-        if (k != l) coefficient += by_slopes(l * n + i, k * n + j);
+        double coefficient = Q(row + i, j) + Q(row + j, i) + slope_product(k * n + i, l * n + j);
+        if (k != l) coefficient += slope_product(l * n + i, k * n + j);
         sum += std::abs(coefficient);
       }
       const double moduli = centre_norms(i) * centre_norms(j) + centre_norms(i) * (s(j) + h(j)) +
@@ -640,12 +665,13 @@ Eigen::MatrixXd singular_basis(const TaylorMatrix::ConstPart& C, double& delta) 
 // expansion of Ĝ_00, b and c from the entry bounds (c by perron_upper: weighted Gershgorin). The excess is b²/(a - c),
 // the cross terms of the second-order part and the third-order terms.
 double norm_upper(const TaylorMatrix& X, double floor) {
-  const double cheap = X.frobenius_upper();
+  const Eigen::VectorXd part_norms = part_frobenius(X);
+  const double cheap = frobenius_upper(part_norms, X.remainder);
   if (cheap <= floor || !std::isfinite(cheap)) return cheap;
   double delta = 0.0;
   const Eigen::MatrixXd V = singular_basis(X.centre(), delta);
   if (!(delta < 0.5)) return cheap;
-  const BasisTerms t = in_basis(X, V);
+  const BasisTerms t = in_basis(X, part_norms, V);
   Eigen::VectorXd s, h;
   Eigen::MatrixXd Q;
   const Eigen::MatrixXd bound = gram_bounds(t, s, h, Q);
