@@ -23,14 +23,14 @@ double up(double x) { return x * kTaylorInflation + kTaylorUnderflow; }
 template <class Derived>
 double frobenius(const Eigen::MatrixBase<Derived>& X) { return up(std::sqrt(up(X.squaredNorm()))); }
 
-// ||X Y - fl(X Y)||_F for a product computed in double: <= γ_n || |X| |Y| ||_F <= γ_n ||X||_F ||Y||_F.
+// ||X Y - fl(X Y)||_F for a product computed in double: <= γ_n || |X| |Y| ||_F <= γ_n ||X||_F ||Y||_F (n: X's
+// columns), from the two norms rounded up.
+double product_rounding(Eigen::Index n, double X_frobenius, double Y_frobenius) {
+  return up(gamma(static_cast<int>(n)) * X_frobenius * Y_frobenius);
+}
 template <class Left, class Right>
 double product_rounding(const Eigen::MatrixBase<Left>& X, const Eigen::MatrixBase<Right>& Y) {
-  return up(gamma(static_cast<int>(X.cols())) * frobenius(X) * frobenius(Y));
-}
-template <class Derived>
-double product_rounding(const Eigen::MatrixBase<Derived>& X, double Y_frobenius) {
-  return up(gamma(static_cast<int>(X.cols())) * frobenius(X) * Y_frobenius);
+  return product_rounding(X.cols(), frobenius(X), frobenius(Y));
 }
 
 // max over |t| <= 1 of l t + q t², a non-negative value, rounded up (a few operations, each within 2⁻⁵²).
@@ -505,16 +505,15 @@ struct BasisTerms {
 
 // `part_norms`: part_frobenius(X).
 BasisTerms in_basis(const TaylorMatrix& X, const Eigen::VectorXd& part_norms, const Eigen::MatrixXd& V) {
-  const double V_frobenius = frobenius(V), rounding = gamma(static_cast<int>(X.cols()));
+  const double V_frobenius = frobenius(V);
   const Eigen::Index n = V.cols(), rows = X.rows(), count = X.parts() - 1;
-  // Each part's product rounded within product_rounding(part, V): γ_cols ||part||_F ||V||_F, rounded up.
   BasisTerms t{X.centre() * V, Eigen::MatrixXd(rows, n * count), X.symbols(), X.curvature_count(),
-               up(rounding * part_norms(0) * V_frobenius)};
+               product_rounding(X.cols(), part_norms(0), V_frobenius)};
   // The parts one below the other, multiplied by V at once, then side by side.
   Eigen::MatrixXd stacked(rows * count, X.cols());
   for (Eigen::Index part = 0; part < count; ++part) {
     stacked.middleRows(part * rows, rows) = X.part(static_cast<int>(part + 1));
-    t.rho += up(rounding * part_norms(part + 1) * V_frobenius);
+    t.rho += product_rounding(X.cols(), part_norms(part + 1), V_frobenius);
   }
   Eigen::MatrixXd products(stacked.rows(), n);  // column by column: one long product each, no blocking for an n of 2-8
   for (Eigen::Index j = 0; j < n; ++j) products.col(j).noalias() = stacked * V.col(j);
