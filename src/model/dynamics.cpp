@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numeric>
 #include <optional>
 
 namespace obsgain {
@@ -284,15 +283,38 @@ std::vector<ChainSymmetry> chain_symmetries(const Model& model) {
   return chosen;
 }
 
+namespace {
+
+// Whether joint k slides along a coordinate direction that every revolute joint before it turns about, at every
+// configuration: every placement up to it maps that direction to itself (up to sign), exactly, as a product by 0 and
+// ±1 does. Sliding then moves the bodies after it along that direction, which no turn before it sees (a SCARA's quill,
+// a gantry's axes): the kinetic energy, M and C do not depend on its position (docs/theory.md, "The constants").
+bool slides_along_every_turn_before(const SerialChain& chain, std::size_t k) {
+  const ChainJoint& slide = chain.joints[k];
+  const int c = coordinate_axis(slide.axis);
+  if (slide.type != JointType::prismatic || c < 0) return false;
+  const Eigen::Vector3d direction = Eigen::Vector3d::Unit(c);
+  for (std::size_t i = 0; i <= k; ++i) {
+    const ChainJoint& joint = chain.joints[i];
+    if (coordinate_axis(joint.rotation * direction) != c) return false;
+    if (i < k && joint.type == JointType::revolute && coordinate_axis(joint.axis) != c) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
 std::vector<int> configuration_joints(const Model& model) {
   if (is_planar_2r(model)) return {1};
-  std::vector<int> joints(static_cast<std::size_t>(model.dof() - 1));
-  std::iota(joints.begin(), joints.end(), 1);
+  const auto* chain = std::get_if<SerialChain>(&model.structure);
+  std::vector<int> joints;
+  for (int k = 1; k < model.dof(); ++k)
+    if (!chain || !slides_along_every_turn_before(*chain, static_cast<std::size_t>(k))) joints.push_back(k);
   // The last joint moves only the last body (the tool lumped into it); when that body is symmetric about the joint's
   // axis, nothing moves relative to anything else either: M and C do not depend on its position (docs/theory.md,
   // "The constants").
-  const auto* chain = std::get_if<SerialChain>(&model.structure);
-  if (chain && joints.size() > 1 && chain->joints.back().type == JointType::revolute &&
+  const bool last_searched = !joints.empty() && joints.back() == model.dof() - 1;
+  if (chain && joints.size() > 1 && last_searched && chain->joints.back().type == JointType::revolute &&
       symmetric_about(chain->bodies.back(), chain->joints.back().axis))
     joints.pop_back();
   return joints;

@@ -8,10 +8,12 @@
 #include <cmath>
 #include <numbers>
 #include <random>
+#include <string>
 
 namespace {
 
 using obsgain_test::examples;
+using obsgain_test::write_temp_file;
 
 // Polarisation of the quadratic form A(q, ·): (A(e_j + e_k) - A(e_j) - A(e_k)) / 2, an independent way to the
 // tensors that the chain computes entry by entry with its bilinear Newton–Euler pass.
@@ -89,15 +91,15 @@ TEST(Model, SingularInertiaIsReportedWithItsConfiguration) {
   }
 }
 
-// M and the Coriolis tensors at q and at q with its last joint turned to `last`, their largest difference relative to
+// M and the Coriolis tensors at q and at q with joint `joint` moved to `value`, their largest difference relative to
 // the largest entry.
-double last_joint_effect(const obsgain::Model& model, Eigen::VectorXd q, double last) {
+double joint_effect(const obsgain::Model& model, Eigen::VectorXd q, int joint, double value) {
   const int n = model.dof();
   Eigen::MatrixXd M(n, n), M_turned(n, n);
   std::vector<Eigen::MatrixXd> N, N_turned;
   obsgain::mass_matrix(model, q, M);
   obsgain::coriolis_tensors(model, q, N);
-  q(n - 1) = last;
+  q(joint) = value;
   obsgain::mass_matrix(model, q, M_turned);
   obsgain::coriolis_tensors(model, q, N_turned);
   double difference = (M - M_turned).cwiseAbs().maxCoeff(), scale = M.cwiseAbs().maxCoeff();
@@ -116,25 +118,73 @@ TEST(Model, ALastBodySymmetricAboutItsAxisTakesItsJointOutOfTheSearch) {
   for (const char* file : {"arm7.urdf", "iiwa14.urdf"}) {
     const obsgain::Model arm = obsgain::load_robot({examples + "/" + file});
     EXPECT_EQ(obsgain::configuration_joints(arm), (std::vector<int>{1, 2, 3, 4, 5})) << file;
-    EXPECT_LT(last_joint_effect(arm, q7, 2.9), 1e-14) << file;
+    EXPECT_LT(joint_effect(arm, q7, 6, 2.9), 1e-14) << file;
   }
   obsgain::Model moved = obsgain::load_robot({examples + "/arm7.urdf"});
   std::get<obsgain::SerialChain>(moved.structure).bodies.back().com.x() = 1e-3;
   EXPECT_EQ(obsgain::configuration_joints(moved), (std::vector<int>{1, 2, 3, 4, 5, 6}));
-  EXPECT_GT(last_joint_effect(moved, q7, 2.9), 1e-6);
+  EXPECT_GT(joint_effect(moved, q7, 6, 2.9), 1e-6);
   // About a tilted axis the test is not exact in floating point: the joint is kept, though the body is symmetric.
   obsgain::Model tilted = obsgain::load_robot({examples + "/arm7.urdf"});
   auto& flange = std::get<obsgain::SerialChain>(tilted.structure);
   flange.joints.back().axis = Eigen::Vector3d(0.0, 0.6, 0.8);
   flange.bodies.back().com = 0.02 * flange.joints.back().axis;
   EXPECT_EQ(obsgain::configuration_joints(tilted).size(), 6u);
-  EXPECT_LT(last_joint_effect(tilted, q7, 2.9), 1e-14);
+  EXPECT_LT(joint_effect(tilted, q7, 6, 2.9), 1e-14);
   const obsgain::Model panda = obsgain::load_robot({examples + "/panda.urdf"});
   EXPECT_EQ(obsgain::configuration_joints(panda).size(), 6u);
-  EXPECT_GT(last_joint_effect(panda, q7, 2.9), 1e-6);
+  EXPECT_GT(joint_effect(panda, q7, 6, 2.9), 1e-6);
   const obsgain::Model arm6 = obsgain::load_robot({examples + "/arm6.urdf"});
   EXPECT_EQ(obsgain::configuration_joints(arm6), (std::vector<int>{1, 2, 3, 4, 5}));
-  EXPECT_GT(last_joint_effect(arm6, Eigen::VectorXd::LinSpaced(6, -2.0, 1.3), 2.9), 1e-6);
+  EXPECT_GT(joint_effect(arm6, Eigen::VectorXd::LinSpaced(6, -2.0, 1.3), 5, 2.9), 1e-6);
+}
+
+// A SCARA (two turns about z, a quill sliding along z, a tool turning about z) and a gantry (three slides along x,
+// y and z) as URDF, the quill's (or the first slide's) axis as given.
+std::string scara_urdf(const std::string& quill_axis) {
+  const auto link = [](const char* name, const char* com, const char* mass, const char* inertia) {
+    return std::string("<link name=\"") + name + "\"><inertial><origin xyz=\"" + com + "\"/><mass value=\"" + mass +
+           "\"/><inertia " + inertia + "/></inertial></link>";
+  };
+  const auto joint = [](const char* name, const char* type, const char* parent, const char* child, const char* at,
+                        const std::string& axis, const char* limits) {
+    return std::string("<joint name=\"") + name + "\" type=\"" + type + "\"><parent link=\"" + parent +
+           "\"/><child link=\"" + child + "\"/><origin xyz=\"" + at + "\"/><axis xyz=\"" + axis +
+           "\"/><limit " + limits + " effort=\"1\"/></joint>";
+  };
+  return "<robot name=\"scara\"><link name=\"base\"/>" +
+         link("arm1", "0.2 0 0", "4", R"(ixx="0.01" iyy="0.06" izz="0.06" ixy="0" ixz="0" iyz="0")") +
+         link("arm2", "0.15 0.01 0", "2.5", R"(ixx="0.005" iyy="0.03" izz="0.03" ixy="0.001" ixz="0" iyz="0")") +
+         link("quill", "0 0 -0.1", "1", R"(ixx="0.004" iyy="0.004" izz="0.0005" ixy="0" ixz="0" iyz="0")") +
+         link("tool", "0.01 0 -0.02", "0.5", R"(ixx="0.0005" iyy="0.0005" izz="0.0003" ixy="0" ixz="0" iyz="0")") +
+         joint("j1", "revolute", "base", "arm1", "0 0 0.4", "0 0 1", R"(lower="-2.5" upper="2.5" velocity="3")") +
+         joint("j2", "revolute", "arm1", "arm2", "0.4 0 0", "0 0 1", R"(lower="-2.6" upper="2.6" velocity="4")") +
+         joint("j3", "prismatic", "arm2", "quill", "0.3 0 0", quill_axis, R"(lower="-0.2" upper="0" velocity="1")") +
+         joint("j4", "revolute", "quill", "tool", "0 0 -0.2", "0 0 1", R"(lower="-6" upper="6" velocity="6")") +
+         "</robot>";
+}
+
+// A joint that slides along the direction every turn before it is about moves the bodies after it where no turn sees
+// them: M and C do not depend on it, and the searches drop it. Sliding along another direction, it is kept.
+TEST(Model, AJointSlidingAlongEveryTurnBeforeItTakesItOutOfTheSearch) {
+  const Eigen::VectorXd q = Eigen::Vector4d(0.3, -1.1, -0.05, 0.7);
+  const obsgain::Model scara = obsgain::load_robot({write_temp_file("scara.urdf", scara_urdf("0 0 1"))});
+  EXPECT_EQ(obsgain::configuration_joints(scara), (std::vector<int>{1, 3}));
+  EXPECT_LT(joint_effect(scara, q, 2, -0.17), 1e-14);
+  for (const char* axis : {"1 0 0", "0 0.6 0.8"}) {
+    const obsgain::Model other = obsgain::load_robot({write_temp_file("scara_other.urdf", scara_urdf(axis))});
+    EXPECT_EQ(obsgain::configuration_joints(other), (std::vector<int>{1, 2, 3})) << axis;
+    EXPECT_GT(joint_effect(other, q, 2, -0.17), 1e-6) << axis;
+  }
+  // A gantry: every slide after the first is along a direction no turn sees; M is constant and nothing is searched.
+  obsgain::Model gantry = scara;
+  auto& chain = std::get<obsgain::SerialChain>(gantry.structure);
+  for (int j = 0; j < 4; ++j) {
+    chain.joints[static_cast<std::size_t>(j)].type = obsgain::JointType::prismatic;
+    chain.joints[static_cast<std::size_t>(j)].axis = Eigen::Vector3d::Unit(j % 3);
+  }
+  EXPECT_TRUE(obsgain::configuration_joints(gantry).empty());
+  for (int j = 0; j < 4; ++j) EXPECT_LT(joint_effect(gantry, q, j, 0.4), 1e-14) << j;
 }
 
 // g q: the `negated` joints' positions negated, then the `turned` ones' turned by π.

@@ -154,7 +154,9 @@ void coriolis_tensors(const Model& model, const Eigen::Ref<const Eigen::VectorXd
 Eigen::MatrixXd coriolis_jacobian(const std::vector<Eigen::MatrixXd>& N, const Eigen::Ref<const Eigen::VectorXd>& w);
 
 // Joints whose positions M and C depend on; the bound searches run over these only. Rotating or translating a
-// whole serial chain about its first joint moves no body relative to another: its M and C do not depend on q1.
+// whole serial chain about its first joint moves no body relative to another: its M and C do not depend on q1. Nor on
+// the last joint where the last body is symmetric about its axis, nor on a prismatic joint that slides along the axis
+// of every revolute joint before it (docs/theory.md, "The constants").
 std::vector<int> configuration_joints(const Model& model);
 
 // A symmetry of a serial chain: g q negates the positions of `negated`, then turns those of `turned` by π, and
