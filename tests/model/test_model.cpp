@@ -95,16 +95,16 @@ TEST(Model, SingularInertiaIsReportedWithItsConfiguration) {
 // the largest entry.
 double joint_effect(const obsgain::Model& model, Eigen::VectorXd q, int joint, double value) {
   const int n = model.dof();
-  Eigen::MatrixXd M(n, n), M_turned(n, n);
-  std::vector<Eigen::MatrixXd> N, N_turned;
+  Eigen::MatrixXd M(n, n), M_moved(n, n);
+  std::vector<Eigen::MatrixXd> N, N_moved;
   obsgain::mass_matrix(model, q, M);
   obsgain::coriolis_tensors(model, q, N);
   q(joint) = value;
-  obsgain::mass_matrix(model, q, M_turned);
-  obsgain::coriolis_tensors(model, q, N_turned);
-  double difference = (M - M_turned).cwiseAbs().maxCoeff(), scale = M.cwiseAbs().maxCoeff();
+  obsgain::mass_matrix(model, q, M_moved);
+  obsgain::coriolis_tensors(model, q, N_moved);
+  double difference = (M - M_moved).cwiseAbs().maxCoeff(), scale = M.cwiseAbs().maxCoeff();
   for (int i = 0; i < n; ++i) {
-    difference = std::max(difference, (N[i] - N_turned[i]).cwiseAbs().maxCoeff());
+    difference = std::max(difference, (N[i] - N_moved[i]).cwiseAbs().maxCoeff());
     scale = std::max(scale, N[i].cwiseAbs().maxCoeff());
   }
   return difference / scale;
@@ -139,8 +139,7 @@ TEST(Model, ALastBodySymmetricAboutItsAxisTakesItsJointOutOfTheSearch) {
   EXPECT_GT(joint_effect(arm6, Eigen::VectorXd::LinSpaced(6, -2.0, 1.3), 5, 2.9), 1e-6);
 }
 
-// A SCARA (two turns about z, a quill sliding along z, a tool turning about z) and a gantry (three slides along x,
-// y and z) as URDF, the quill's (or the first slide's) axis as given.
+// A SCARA as URDF: two turns about z, a quill sliding along `quill_axis`, a tool turning about z.
 std::string scara_urdf(const std::string& quill_axis) {
   const auto link = [](const char* name, const char* com, const char* mass, const char* inertia) {
     return std::string("<link name=\"") + name + "\"><inertial><origin xyz=\"" + com + "\"/><mass value=\"" + mass +
