@@ -615,9 +615,8 @@ Eigen::MatrixXd gathered_gram_bounds(const BasisTerms& t, const Eigen::MatrixXd&
   const auto pairs = symbol_pairs(t.slopes);
   const auto slopes = t.parts.leftCols(n * m);
   // ĝ_ik·ĝ_jl at (k n + i, l n + j), the lower triangle only (read through `slope_product`): half the products.
-  Eigen::MatrixXd by_slopes(n * m, n * m);
-  by_slopes.triangularView<Eigen::Lower>().setZero();
-  by_slopes.selfadjointView<Eigen::Lower>().rankUpdate(slopes.transpose());
+  Eigen::MatrixXd by_slopes = Eigen::MatrixXd::Zero(n * m, n * m);
+  if (m > 0) by_slopes.selfadjointView<Eigen::Lower>().rankUpdate(slopes.transpose());  // Eigen takes no empty update
   const auto slope_product = [&](Eigen::Index a, Eigen::Index b) { return a >= b ? by_slopes(a, b) : by_slopes(b, a); };
   const Eigen::MatrixXd P = t.C.transpose() * t.C;
   const int inner = 4 * static_cast<int>(t.C.rows()) + 4;
