@@ -638,6 +638,17 @@ Eigen::MatrixXd best_similarity(const std::vector<Eigen::MatrixXd>& matrices, do
   return T / T(0, 0);
 }
 
+std::optional<double> excess_per_doubling(const BoundBracket& bracket) {
+  if (bracket.stop == SearchStop::gap || !(bracket.work > 0.0)) return std::nullopt;
+  const UpperAtWork* half = nullptr;
+  for (const UpperAtWork& point : bracket.trace)
+    if (point.work <= 0.5 * bracket.work) half = &point;
+  if (!half) return std::nullopt;
+  const double before = half->upper - bracket.lower, after = bracket.upper - bracket.lower;
+  if (!(before > 0.0) || !std::isfinite(before) || !(after >= 0.0)) return std::nullopt;
+  return std::pow(after / before, 1.0 / std::log2(bracket.work / half->work));
+}
+
 BoundReport compute_bounds(const Model& model, const Eigen::VectorXd& velocity_bounds, const BoundOptions& options) {
   validate_velocity_bounds(model, velocity_bounds);
   const auto start = std::chrono::steady_clock::now();

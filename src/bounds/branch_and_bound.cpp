@@ -174,17 +174,26 @@ void restore(const SearchState& state, BranchAndBoundResult& r, Queue& queue, do
   r.boxes = state.evaluated;
   pruned_upper = state.pruned_upper;
   next_id = state.next_id;
+  r.trace = state.trace;
   for (const SearchState::Box& box : state.boxes) queue.push({box.x, box.upper, box.weight, box.id});
 }
 
 SearchState snapshot(Queue queue, const BranchAndBoundResult& r, double pruned_upper, std::uint64_t next_id) {
-  SearchState state{{}, r.lower, pruned_upper, r.work, r.argmax, r.boxes, next_id};
+  SearchState state{{}, r.lower, pruned_upper, r.work, r.argmax, r.boxes, next_id, r.trace};
   state.boxes.reserve(queue.size());
   for (; !queue.empty(); queue.pop()) {
     const QueuedBox& box = queue.top();
     state.boxes.push_back({box.x, box.upper, box.weight, box.id});
   }
   return state;
+}
+
+// The upper end at the end of the first round whose work passes the next power of two (from 2^-20 reference seconds):
+// counted work, so the same points for any thread count and after a resume.
+void trace_upper(BranchAndBoundResult& r, double upper) {
+  double mark = std::ldexp(1.0, -20);
+  while (!r.trace.empty() && mark <= r.trace.back().work) mark *= 2.0;
+  if (r.work >= mark) r.trace.push_back({r.work, upper});
 }
 
 // Why the search stops before the next round, if it does.
@@ -245,6 +254,7 @@ BranchAndBoundResult branch_and_bound(const BranchAndBoundProblem& problem, cons
         pruned_upper = std::max(pruned_upper, child.bound.upper);
     }
     r.boxes += static_cast<int>(children.size());
+    trace_upper(r, std::max(queue.empty() ? 0.0 : queue.top().upper, pruned_upper));
     if (options.save && distributed::output_rank() && std::chrono::steady_clock::now() >= next_save) {
       options.save(snapshot(queue, r, pruned_upper, next_id));
       next_save = std::chrono::steady_clock::now() + std::chrono::duration_cast<std::chrono::steady_clock::duration>(

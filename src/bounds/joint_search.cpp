@@ -121,7 +121,7 @@ BoundBracket search_joints(const JointSearch& search, const std::function<BoxBou
   problem.value = [&](const Eigen::VectorXd& x) { return value(search.configuration(x)); };
   problem.value_work = value_work;
   const BranchAndBoundResult r = branch_and_bound(problem, search.coordinates(seed), options);
-  return {r.lower, r.upper, search.configuration(r.argmax), r.boxes, r.seconds, r.work, r.stop};
+  return {r.lower, r.upper, search.configuration(r.argmax), r.boxes, r.seconds, r.work, r.stop, r.trace};
 }
 
 }  // namespace obsgain

@@ -34,6 +34,12 @@ std::string hex(const Eigen::VectorXd& v) {
   return out;
 }
 
+std::string hex(const std::vector<UpperAtWork>& trace) {
+  std::string out = std::to_string(trace.size());
+  for (const UpperAtWork& point : trace) fmt::format_to(std::back_inserter(out), " {:a} {:a}", point.work, point.upper);
+  return out;
+}
+
 // Reads the file's tokens in order; any malformed token is the file's fault, named.
 class Tokens {
  public:
@@ -55,6 +61,14 @@ class Tokens {
     Eigen::VectorXd v(static_cast<Eigen::Index>(count()));
     for (double& x : v) x = number();
     return v;
+  }
+  std::vector<UpperAtWork> trace() {
+    std::vector<UpperAtWork> points(count());
+    for (UpperAtWork& point : points) {
+      point.work = number();
+      point.upper = number();
+    }
+    return points;
   }
   std::string rest_of_line() {
     std::string line;
@@ -81,6 +95,7 @@ BoundBracket read_finished(Tokens& t) {
   if (stop > static_cast<std::uint64_t>(SearchStop::race)) t.fail(fmt::format("has stop {}, which no search ends by", stop));
   b.stop = static_cast<SearchStop>(stop);
   b.argmax = t.vector();
+  b.trace = t.trace();
   return b;
 }
 
@@ -94,6 +109,7 @@ SearchState read_state(Tokens& t) {
   s.argmax = t.vector();
   s.boxes.resize(t.count());
   const std::uint64_t dimension = t.count();
+  s.trace = t.trace();
   for (SearchState::Box& box : s.boxes) {
     box.upper = t.number();
     box.id = t.count();
@@ -109,7 +125,7 @@ SearchState read_state(Tokens& t) {
 void write_state(std::ostream& out, const SearchState& s) {
   const std::size_t dimension = s.boxes.empty() ? 0 : s.boxes.front().x.size();
   out << "state " << hex(s.lower) << ' ' << hex(s.pruned_upper) << ' ' << hex(s.work) << ' ' << s.evaluated << ' '
-      << s.next_id << ' ' << hex(s.argmax) << ' ' << s.boxes.size() << ' ' << dimension << '\n';
+      << s.next_id << ' ' << hex(s.argmax) << ' ' << s.boxes.size() << ' ' << dimension << ' ' << hex(s.trace) << '\n';
   for (const SearchState::Box& box : s.boxes) {
     out << hex(box.upper) << ' ' << box.id;
     for (const Interval& x : box.x) out << ' ' << hex(x.lower()) << ' ' << hex(x.upper());
@@ -170,7 +186,7 @@ void SearchJournal::write() const {
       if (e.finished) {
         const BoundBracket& b = *e.finished;
         out << "finished " << hex(b.lower) << ' ' << hex(b.upper) << ' ' << b.boxes << ' ' << hex(b.seconds) << ' '
-            << hex(b.work) << ' ' << static_cast<int>(b.stop) << ' ' << hex(b.argmax) << '\n';
+            << hex(b.work) << ' ' << static_cast<int>(b.stop) << ' ' << hex(b.argmax) << ' ' << hex(b.trace) << '\n';
       } else {
         write_state(out, *e.state);
       }

@@ -423,6 +423,27 @@ void reshape_for_fall_back(Design& d, const DesignOptions& options) {
                                    d.alpha, to_string(d.certificate), polytopic_alpha));
 }
 
+// What the search's pace says a larger budget would buy: its excess per doubling of the work, carried on to the budget
+// that brings the bracket within DesignOptions::wide_bracket. An extrapolation, and the warning says so.
+std::string budget_pace(const BoundBracket& bracket, const DesignOptions& options) {
+  const std::optional<double> factor = excess_per_doubling(bracket);
+  const double budget = options.certified_bounds.budget_seconds;
+  if (!factor || !(budget > 0.0)) return "";
+  const std::string pace = fmt::format(
+      "; per doubling of its work, its excess over the value attained fell to {:.2g} of itself lately", *factor);
+  const double excess = bracket.upper - bracket.lower, wanted = (options.wide_bracket - 1.0) * bracket.lower;
+  const double reach = options.extrapolate_budget_up_to;
+  const double doublings =
+      *factor < 1.0 ? std::log2(wanted / excess) / std::log2(*factor) : std::numeric_limits<double>::infinity();
+  if (doublings <= std::log2(reach))
+    return pace + fmt::format(": at that pace --bound-budget {:.3g} would bring it within {:.3g} times (an "
+                              "extrapolation, not a bound)",
+                              budget * std::exp2(doublings), options.wide_bracket);
+  return pace + fmt::format(": at that pace even --bound-budget {:.3g} ({:.3g} times this one) would leave it above "
+                            "{:.3g} times (an extrapolation, not a bound)",
+                            budget * reach, reach, options.wide_bracket);
+}
+
 // A proof far above the value attained is still a proof, but the gains pay for the gap: named for the constant the
 // selected certificate rests on, L_T for the scaled one and L_joint for the others (not for a proven polytopic one,
 // which rests on its polytope).
@@ -433,9 +454,9 @@ void name_a_wide_bracket(Design& d, const DesignOptions& options) {
   if (!(bracket.lower > 0.0 && bracket.upper > options.wide_bracket * bracket.lower)) return;
   d.warnings.push_back(fmt::format(
       "{}'s proven upper end {:.6g} is {:.3g} times the value attained ({:.6g}): the certified gains pay for that gap "
-      "(a larger --bound-budget narrows it{})",
+      "(a larger --bound-budget narrows it{}){}",
       used.name, bracket.upper, bracket.upper / bracket.lower, bracket.lower,
-      d.armature.isZero(0.0) ? "; real arms have rotor inertia: --armature" : ""));
+      d.armature.isZero(0.0) ? "; real arms have rotor inertia: --armature" : "", budget_pace(bracket, options)));
 }
 
 // The selected norm-bound certificate on its constant's attained value (Design::AtAttained).

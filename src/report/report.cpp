@@ -35,8 +35,10 @@ std::string stop_note(SearchStop stop) {
 }
 
 nlohmann::json bracket_json(const BoundBracket& b) {
+  const std::optional<double> pace = excess_per_doubling(b);
   return {{"lower", b.lower}, {"upper", b.upper}, {"argmax_q", to_json(b.argmax)}, {"boxes", b.boxes},
-          {"work", b.work},   {"stop", stop_text(b.stop).name}, {"seconds", b.seconds}};
+          {"work", b.work},   {"stop", stop_text(b.stop).name}, {"seconds", b.seconds},
+          {"excess_per_doubling", pace ? nlohmann::json(*pace) : nlohmann::json(nullptr)}};
 }
 
 std::string where(const BoundMaximum& m) {

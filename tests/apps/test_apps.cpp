@@ -345,6 +345,19 @@ TEST(DesignGainsApp, AWideProvenBracketIsNamedInAWarning) {
       warnings(run("design-gains", "--robot " + examples + "/arm3.urdf --gamma 5 --bound-budget 0.0001 --quiet --json"));
   EXPECT_NE(wide.find("times the value attained"), std::string::npos) << wide;
   EXPECT_NE(wide.find("--bound-budget"), std::string::npos) << wide;
+  // At 0.03 counted seconds L_joint is 17.3 times its value attained, its excess falling to 0.17 of itself per doubling
+  // of the work over its second half: the warning carries that pace on to a budget, as the extrapolation it is.
+  const AppRun paced = run("design-gains", "--robot " + examples + "/arm3.urdf --gamma 5 --bound-budget 0.03 --quiet --json");
+  const nlohmann::json pace = nlohmann::json::parse(paced.out)["bounds"]["brackets"]["L_joint"]["excess_per_doubling"];
+  ASSERT_TRUE(pace.is_number()) << paced.out;
+  EXPECT_GT(pace.get<double>(), 0.05);
+  EXPECT_LT(pace.get<double>(), 0.5);
+  const std::string extrapolated = warnings(paced);
+  std::array<char, 64> fell{};
+  std::snprintf(fell.data(), fell.size(), "fell to %.2g of itself", pace.get<double>());
+  EXPECT_NE(extrapolated.find(fell.data()), std::string::npos) << extrapolated;
+  EXPECT_NE(extrapolated.find("would bring it within 1.5 times (an extrapolation, not a bound)"), std::string::npos)
+      << extrapolated;
   const std::string converged = warnings(run("design-gains", "--robot pendubot --gamma 1.27 --quiet --json"));
   EXPECT_EQ(converged.find("times the value attained"), std::string::npos) << converged;
   // Named scaled, with L_T's proof behind: the warning is L_T's.

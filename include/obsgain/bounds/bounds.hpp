@@ -12,6 +12,7 @@
 #include "obsgain/bounds/branch_and_bound.hpp"
 #include "obsgain/model/model.hpp"
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -68,7 +69,15 @@ struct BoundBracket {
   int boxes = 0;
   double seconds = 0.0, work = 0.0;  // wall time; counted work (reference seconds, branch_and_bound.hpp)
   SearchStop stop = SearchStop::gap;  // time: the wall-clock safety limit ended it (the bracket may differ between runs)
+  std::vector<UpperAtWork> trace;     // the upper end as the work doubled (branch_and_bound.hpp)
 };
+
+// What the last doubling (or more) of a search's counted work did to its excess over the value attained, per
+// doubling: (upper - lower) at the end over its value at the trace's last point of at most half the work, to the power
+// 1 / (the doublings between them). An observation of this search, not a bound: a larger budget has closed the gap at
+// about this pace on the arms measured (docs/theory.md, "How the gap closes with the budget"). std::nullopt for a
+// search that reached its gap or has no such point.
+std::optional<double> excess_per_doubling(const BoundBracket& bracket);
 
 struct BoundReport {
   Eigen::VectorXd velocity_bounds;

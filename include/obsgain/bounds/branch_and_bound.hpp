@@ -39,6 +39,12 @@ using ProgressCallback = std::function<void(const SearchProgress&)>;
 // had the lower upper end and went on (certified_bounds.hpp).
 enum class SearchStop { gap, boxes, budget, time, race };
 
+// The proven upper end when the counted work first passed 2^k reference seconds (k from -20 on): how fast the
+// search closed its gap, which tells what a larger budget would buy (excess_per_doubling, bounds.hpp).
+struct UpperAtWork {
+  double work = 0.0, upper = 0.0;
+};
+
 // A search between two rounds: everything it needs to continue exactly as it would have (checkpoints,
 // docs/cluster.md).
 struct SearchState {
@@ -53,6 +59,7 @@ struct SearchState {
   Eigen::VectorXd argmax;
   int evaluated = 0;
   std::uint64_t next_id = 0;
+  std::vector<UpperAtWork> trace;
 };
 
 struct BranchAndBoundOptions {
@@ -99,6 +106,7 @@ struct BranchAndBoundResult {
   int boxes = 0;
   double seconds = 0.0, work = 0.0;
   SearchStop stop = SearchStop::gap;
+  std::vector<UpperAtWork> trace;
 };
 
 // `seed`: a point where f is large (the numerical search's argmax), evaluated first.
