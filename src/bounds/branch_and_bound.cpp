@@ -188,6 +188,12 @@ SearchState snapshot(Queue queue, const BranchAndBoundResult& r, double pruned_u
   return state;
 }
 
+// The bracket's upper end: every part of the domain is in the queue or was discarded with a proven bound below the
+// attained value.
+double proven_upper(const Queue& queue, double pruned_upper) {
+  return std::max(queue.empty() ? 0.0 : queue.top().upper, pruned_upper);
+}
+
 // The upper end at the end of the first round whose work passes the next power of two (from 2^-20 reference seconds):
 // counted work, so the same points for any thread count and after a resume.
 void trace_upper(BranchAndBoundResult& r, double upper) {
@@ -254,7 +260,7 @@ BranchAndBoundResult branch_and_bound(const BranchAndBoundProblem& problem, cons
         pruned_upper = std::max(pruned_upper, child.bound.upper);
     }
     r.boxes += static_cast<int>(children.size());
-    trace_upper(r, std::max(queue.empty() ? 0.0 : queue.top().upper, pruned_upper));
+    trace_upper(r, proven_upper(queue, pruned_upper));
     if (options.save && distributed::output_rank() && std::chrono::steady_clock::now() >= next_save) {
       options.save(snapshot(queue, r, pruned_upper, next_id));
       next_save = std::chrono::steady_clock::now() + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
@@ -262,11 +268,10 @@ BranchAndBoundResult branch_and_bound(const BranchAndBoundProblem& problem, cons
     }
     if (options.progress && distributed::output_rank() && std::chrono::steady_clock::now() >= next_report) {
       next_report = std::chrono::steady_clock::now() + std::chrono::milliseconds(250);
-      report(options, r, std::max(queue.empty() ? 0.0 : queue.top().upper, pruned_upper), start);
+      report(options, r, proven_upper(queue, pruned_upper), start);
     }
   }
-  // Every part of the domain is in the queue or was discarded with a proven bound below the attained value.
-  r.upper = std::max(queue.empty() ? 0.0 : queue.top().upper, pruned_upper);
+  r.upper = proven_upper(queue, pruned_upper);
   if (options.stopped) options.stopped(snapshot(std::move(queue), r, pruned_upper, next_id));
   r.lower = std::min(r.lower, r.upper);  // the attained value is a float estimate: ulps
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

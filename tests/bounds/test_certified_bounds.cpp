@@ -273,18 +273,18 @@ TEST(ArmBrackets, LongSearchesReportProgress) {
   const obsgain::Model arm = obsgain::load_robot({examples + "/arm3.urdf"});
   const obsgain::BoundReport numeric = light_search(arm);
   obsgain::CertifiedOptions options;
-  options.budget_seconds = 2.0;  // L_joint gets 1.9
-  options.relative_gap = 1e-12;  // L_joint reaches it in about a second; the budget ends the others
+  options.budget_seconds = 4.0;  // L_joint gets 3.8: about two seconds of wall time on an idle machine of the suite's
+  options.relative_gap = 0.0;    // the budget ends every search, whatever the machine's pace
   std::vector<obsgain::SearchProgress> reports;
   options.progress = [&](const obsgain::SearchProgress& p) { reports.push_back(p); };
   obsgain::certify_bounds(arm, numeric, options);
   ASSERT_FALSE(reports.empty());
+  EXPECT_EQ(std::string(reports.front().bound), "L_joint");  // it runs first, and for longer than a second
   for (std::size_t i = 0; i < reports.size(); ++i) {
     const obsgain::SearchProgress& p = reports[i];
     EXPECT_GE(p.seconds, 1.0);
-    // L_joint runs first (it may end at its gap before its first report on an idle machine).
-    if (std::string(p.bound) == "L_joint") EXPECT_DOUBLE_EQ(p.work_budget, 0.95 * 2.0);
-    EXPECT_LE(p.work_budget, 2.0);
+    if (std::string(p.bound) == "L_joint") EXPECT_DOUBLE_EQ(p.work_budget, 0.95 * 4.0);
+    EXPECT_LE(p.work_budget, 4.0);
     EXPECT_LE(p.work, p.work_budget + 0.05);  // at most a round's work past the budget
     EXPECT_LE(p.lower, p.upper);
     if (std::isfinite(p.upper))
