@@ -418,13 +418,14 @@ BuiltChain build_chain(const urdf::ModelInterface& robot, const std::string& bas
 }
 
 // The velocity box from <limit velocity> (none when a joint has no positive limit: --vmax is then required), and
-// F = diag(<dynamics damping>).
+// F = diag(<dynamics damping>); a note names the joints whose Coulomb friction is left out.
 void velocities_and_friction(const urdf::ModelInterface& robot, const std::vector<std::string>& names,
                              const std::string& source, Model& model) {
   const int n = static_cast<int>(names.size());
   model.friction = Eigen::MatrixXd::Zero(n, n);
   model.velocity_bounds.resize(n);
   bool every_velocity_limit = true;
+  std::vector<std::string> coulomb;
   for (int i = 0; i < n; ++i) {
     const urdf::JointConstSharedPtr joint = robot.getJoint(names[i]);
     const double velocity = joint->limits ? joint->limits->velocity : 0.0;
@@ -438,8 +439,14 @@ void velocities_and_friction(const urdf::ModelInterface& robot, const std::vecto
     if (!(damping >= 0.0) || !std::isfinite(damping))
       throw InputError(fmt::format("{}: joint '{}' has damping {}: must be >= 0", source, joint->name, damping));
     model.friction(i, i) = damping;
+    if (joint->dynamics && joint->dynamics->friction != 0.0) coulomb.push_back("'" + joint->name + "'");
   }
   if (!every_velocity_limit) model.velocity_bounds.resize(0);
+  // Not modelled (docs/robots.md): said, so that a file that declares it does not pass for the plant certified.
+  if (!coulomb.empty())
+    model.notes.push_back(fmt::format("Coulomb friction (<dynamics friction>) of {} is not modelled: the observer and "
+                                      "its certificate take the viscous damping only",
+                                      fmt::join(coulomb, ", ")));
 }
 
 // Reflected rotor inertia: --armature, or the file's Drake transmissions.

@@ -11,6 +11,7 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <fstream>
 
 namespace {
@@ -90,6 +91,22 @@ TEST(Urdf, JointDomainsVelocityLimitsDampingAndActuationComeFromTheFile) {
   EXPECT_EQ(arm.friction, Eigen::MatrixXd(Eigen::Vector3d(0.2, 0.1, 0.05).asDiagonal()));
   EXPECT_EQ(arm.input_matrix, Eigen::MatrixXd::Identity(3, 3));
   EXPECT_EQ(obsgain::configuration_joints(arm), (std::vector<int>{1, 2}));
+  const auto coulomb_notes = [](const obsgain::Model& m) {
+    return std::count_if(m.notes.begin(), m.notes.end(),
+                         [](const std::string& note) { return note.find("Coulomb friction") != std::string::npos; });
+  };
+  EXPECT_EQ(coulomb_notes(arm), 0);  // friction="0" on every joint
+  // Coulomb friction is not modelled: a file that declares it (the xArm's published URDF does, on every joint) is told.
+  std::string rubbing = read_text(examples + "/arm3.urdf");
+  rubbing.replace(rubbing.find(R"(friction="0")"), 12, R"(friction="0.3")");
+  const obsgain::Model rubbed = obsgain::load_robot({write_temp_file("coulomb.urdf", rubbing)});
+  ASSERT_EQ(coulomb_notes(rubbed), 1);
+  const std::string note = *std::find_if(rubbed.notes.begin(), rubbed.notes.end(), [](const std::string& n) {
+    return n.find("Coulomb friction") != std::string::npos;
+  });
+  EXPECT_EQ(note, "Coulomb friction (<dynamics friction>) of 'yaw' is not modelled: the observer and its "
+                  "certificate take the viscous damping only");
+  EXPECT_EQ(rubbed.friction, arm.friction);
 
   const obsgain::Model pendubot = obsgain::load_robot({examples + "/pendubot.urdf", "", "", {1, 0}});
   EXPECT_EQ(pendubot.input_matrix, Eigen::MatrixXd(Eigen::Vector2d(1.0, 0.0)));
