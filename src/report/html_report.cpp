@@ -11,6 +11,7 @@
 #include <cerrno>
 #include <cmath>
 #include <filesystem>
+#include <optional>
 #include <fstream>
 #include <sstream>
 #include <string>
@@ -98,6 +99,14 @@ const char* kPlotPreamble =
     "set terminal svg size 760,400 dynamic enhanced font 'sans,11'\nset datafile separator ','\n"
     "set key below\nset grid\nset format y '%.8g'\n";
 
+// A sampled curve and, where the bound is finite, the value the design uses as a dashed line (an unfinished search's
+// upper end is infinite: gnuplot has no such number).
+std::string curve_and_bound(int column, double bound, const char* name) {
+  std::string plot = fmt::format("plot 'bound_curves.csv' every ::1 using 1:{} with lines lw 2 title 'sampled'", column);
+  if (std::isfinite(bound)) plot += fmt::format(", {:.12g} with lines dt 2 lw 2 title '{}'", bound, name);
+  return plot + "\n";
+}
+
 Plot bound_curves_plot(const VerificationReport& r) {
   const auto& b = r.design.design.bounds;
   const std::string joint = fmt::format("q{}", r.curve_joint + 1);
@@ -105,20 +114,14 @@ Plot bound_curves_plot(const VerificationReport& r) {
   const std::string kind = b.certified ? "proven upper bound" : "numeric estimate, not proven";
   return {"bound_curves",
           fmt::format("The bounds' functions along {} (the other joints at the M0 argmax), max over the velocity "
-                      "vertices and saturation patterns; dashed: the value the design uses ({})",
+                      "vertices and saturation patterns; dashed: the value the design uses ({}), where it is finite",
                       joint, kind),
           std::string(kPlotPreamble) +
-              fmt::format("set multiplot layout 1,3\nset xlabel '{0} [rad]'\n"
-                          "set title '||M(q)^{{-1}}|| [1/(kg m^2)]'\n"
-                          "plot 'bound_curves.csv' every ::1 using 1:2 with lines lw 2 title 'sampled', "
-                          "{1:.12g} with lines dt 2 lw 2 title 'M0'\n"
-                          "set title 'max_w ||J(q,w)|| [kg m^2/s]'\n"
-                          "plot 'bound_curves.csv' every ::1 using 1:3 with lines lw 2 title 'sampled', "
-                          "{2:.12g} with lines dt 2 lw 2 title 'B'\n"
-                          "set title 'max_{{w,D}} ||M^{{-1}}(J D + F)|| [1/s]'\n"
-                          "plot 'bound_curves.csv' every ::1 using 1:4 with lines lw 2 title 'sampled', "
-                          "{3:.12g} with lines dt 2 lw 2 title 'L_{{joint}}'\nunset multiplot\n",
-                          joint, b.M0.value, b.B.value, b.L_joint.value)};
+              fmt::format("set multiplot layout 1,3\nset xlabel '{} [rad]'\n", joint) +
+              "set title '||M(q)^{-1}|| [1/(kg m^2)]'\n" + curve_and_bound(2, b.M0.value, "M0") +
+              "set title 'max_w ||J(q,w)|| [kg m^2/s]'\n" + curve_and_bound(3, b.B.value, "B") +
+              "set title 'max_{w,D} ||M^{-1}(J D + F)|| [1/s]'\n" + curve_and_bound(4, b.L_joint.value, "L_{joint}") +
+              "unset multiplot\n"};
 }
 
 // When and why the example run leaves the velocity box: from then on it is outside the theorem's assumption.
@@ -330,6 +333,13 @@ std::string model_section(const VerificationReport& r) {
   return h.str();
 }
 
+// What stopped an unfinished search, and its pace then: what a larger budget would buy (docs/usage.md).
+std::string search_end(const BoundBracket& k) {
+  const std::optional<double> pace = excess_per_doubling(k);
+  const std::string stop = escape(stop_text(k.stop).name);
+  return pace ? fmt::format("{}; excess × {:.2g} per doubling", stop, *pace) : stop;
+}
+
 std::string bound_row(const BoundReport& b, const std::string& name, const BoundMaximum& m, const BoundBracket& k) {
   std::string where = "q = " + format_vector(m.q);
   if (m.velocity_vertex.size()) where += ", v = " + format_vector(m.velocity_vertex);
@@ -339,7 +349,7 @@ std::string bound_row(const BoundReport& b, const std::string& name, const Bound
   // The search's end beside the gap it explains (the argmax column is wide, and the table scrolls).
   return table_row({name, digits(b.certified ? k.lower : m.value), b.certified ? digits(k.upper) : "—",
                     b.certified ? fmt::format("{:.1e}", (k.upper - k.lower) / k.upper) : "—",
-                    !b.certified ? "—" : k.stop == SearchStop::gap ? "gap reached" : escape(stop_text(k.stop).name), where,
+                    !b.certified ? "—" : k.stop == SearchStop::gap ? "gap reached" : search_end(k), where,
                     number(m.global_value), number(m.polish_value), b.certified ? std::to_string(k.boxes) : "—"});
 }
 
@@ -365,7 +375,8 @@ std::string bounds_section(const VerificationReport& r) {
        "(upper − lower)/upper. <i>search</i>: whether the search reached the gap target, or what stopped it first: "
        "<i>budget</i> (--bound-budget), <i>boxes</i> (the box limit), <i>wall-clock limit</i> (the safety limit: the "
        "bracket may differ between runs), or <i>race</i> (L_joint and L_T each searched a first share of their budget, "
-       "and the other's upper end was then lower). "
+       "and the other's upper end was then lower). <i>excess × p per doubling</i>: the search's pace lately, its "
+       "excess over the value attained multiplied by p per doubling of its work (an observation, not a bound). "
        "<i>boxes</i>: interval boxes of joint positions the branch and bound examined. "
        "<i>NLopt</i>, <i>Ipopt</i>: the two optimisers' attained values.</p>\n"
     << "<p>||F|| = " << number(b.F_norm) << ", L_paper = M0 (B + ||F||) = " << number(b.L_paper)

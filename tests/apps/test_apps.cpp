@@ -328,6 +328,9 @@ TEST(DesignGainsApp, AnUnfinishedBoundSearchExitsOneAndSaysWhatWouldHelp) {
   EXPECT_EQ(html.find("Gains k1"), std::string::npos);
   // The bounds table says what stopped the searches, as the text report does.
   EXPECT_NE(html.find("</td><td>budget</td><td>q = "), std::string::npos) << html;
+  // The bounds' plot draws the finite bound (B) and leaves out the infinite ones: gnuplot has no "inf".
+  EXPECT_NE(html.find("<svg"), std::string::npos) << html;
+  EXPECT_EQ(html.find("gnuplot failed"), std::string::npos) << html;
 }
 
 // A proof far above the value attained is still a proof, but its cost is named: a warning gives the factor and what
@@ -377,6 +380,25 @@ TEST(DesignGainsApp, AWideProvenBracketIsNamedInAWarning) {
   const nlohmann::json& joint = j["bounds"]["brackets"]["L_joint"];
   EXPECT_GT(joint["upper"].get<double>(), 5.0 * joint["lower"].get<double>());
   EXPECT_EQ(narrow.find("times the value attained"), std::string::npos) << narrow;
+}
+
+// The report's bounds table gives a stopped search's pace beside what stopped it, as the JSON has it: the two-link arm's
+// L_joint at this budget, its excess falling to 0.032 of itself per doubling of the work (measured).
+TEST(VerifyBoundsApp, TheBoundsTableGivesAStoppedSearchsPace) {
+  const std::string out = ::testing::TempDir() + "/obsgain_paced_report";
+  const AppRun r = run("verify-bounds", "--robot " + std::string(OBSGAIN_EXAMPLES_DIR) +
+                                            "/two_link_arm.json --gamma 5 --bound-budget 0.001 --trials 4 --quiet --out " + out);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json joint = read_json(out + "/report.json")["certified"]["L_joint"];
+  ASSERT_TRUE(joint["excess_per_doubling"].is_number()) << joint.dump();
+  EXPECT_NEAR(joint["excess_per_doubling"].get<double>(), 0.031578, 1e-5);  // counted work (rules 29)
+  std::array<char, 80> cell{};
+  std::snprintf(cell.data(), cell.size(), "<td>budget; excess × %.2g per doubling</td>",
+                joint["excess_per_doubling"].get<double>());
+  const std::string html = read_text(out + "/report.html");
+  EXPECT_NE(html.find(cell.data()), std::string::npos) << cell.data();
+  // A search that reached its gap, or stopped with no point in its first half, has no pace to show.
+  EXPECT_NE(html.find("<td>budget</td><td>q = "), std::string::npos);
 }
 
 // On arm7 NLopt and Ipopt stop at different local maxima of B (12.20 and 12.39, measured): on numeric bounds, whose
