@@ -423,25 +423,57 @@ void reshape_for_fall_back(Design& d, const DesignOptions& options) {
                                    d.alpha, to_string(d.certificate), polytopic_alpha));
 }
 
+// The budget at which the search's pace would bring its excess over the value attained down to `wanted`; none past
+// DesignOptions::extrapolate_budget_up_to times the budget given.
+std::optional<double> budget_for_excess(const BoundBracket& bracket, double pace, double wanted,
+                                        const DesignOptions& options) {
+  const double excess = bracket.upper - bracket.lower, budget = options.certified_bounds.budget_seconds;
+  if (!(wanted > 0.0) || !(pace < 1.0)) return std::nullopt;
+  const double doublings = std::log2(wanted / excess) / std::log2(pace);
+  if (doublings > std::log2(options.extrapolate_budget_up_to)) return std::nullopt;
+  return budget * std::exp2(std::max(doublings, 0.0));
+}
+
+// The constant's value below which the selected norm-bound certificate's θ for the target is within
+// DesignOptions::theta_within of its θ on the value attained (θ grows with L); none without a target, or when the
+// design is within it already.
+std::optional<double> L_for_usable_theta(const Design& d, const BoundBracket& bracket, const DesignOptions& options) {
+  if (!options.gamma) return std::nullopt;
+  const auto theta = [&](double L) { return tight_theta_star(d.alpha, d.beta, *options.gamma / (1.0 - d.rate_margin), L); };
+  const double wanted = options.theta_within * theta(bracket.lower);
+  double lo = bracket.lower, hi = bracket.upper;
+  if (theta(hi) <= wanted) return std::nullopt;
+  for (int i = 0; i < 60; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (theta(mid) <= wanted ? lo : hi) = mid;
+  }
+  return lo;
+}
+
 // What the search's pace says a larger budget would buy: its excess per doubling of the work, carried on to the budget
-// that brings the bracket within DesignOptions::wide_bracket. An extrapolation, and the warning says so.
-std::string budget_pace(const BoundBracket& bracket, const DesignOptions& options) {
-  const std::optional<double> factor = excess_per_doubling(bracket);
-  const double budget = options.certified_bounds.budget_seconds;
-  if (!factor || !(budget > 0.0)) return "";
-  const std::string pace = fmt::format(
-      "; per doubling of its work, its excess over the value attained fell to {:.2g} of itself lately", *factor);
-  const double excess = bracket.upper - bracket.lower, wanted = (options.wide_bracket - 1.0) * bracket.lower;
-  const double reach = options.extrapolate_budget_up_to;
-  const double doublings =
-      *factor < 1.0 ? std::log2(wanted / excess) / std::log2(*factor) : std::numeric_limits<double>::infinity();
-  if (doublings <= std::log2(reach))
-    return pace + fmt::format(": at that pace --bound-budget {:.3g} would bring it within {:.3g} times (an "
-                              "extrapolation, not a bound)",
-                              budget * std::exp2(doublings), options.wide_bracket);
-  return pace + fmt::format(": at that pace even --bound-budget {:.3g} ({:.3g} times this one) would leave it above "
-                            "{:.3g} times (an extrapolation, not a bound)",
-                            budget * reach, reach, options.wide_bracket);
+// that brings the bracket within DesignOptions::wide_bracket, and θ within DesignOptions::theta_within of its value on
+// the value attained. Extrapolations, and the warning says so.
+std::string budget_pace(const Design& d, const BoundBracket& bracket, const DesignOptions& options) {
+  const std::optional<double> pace = excess_per_doubling(bracket);
+  if (!pace || !(options.certified_bounds.budget_seconds > 0.0)) return "";
+  const std::string wide = fmt::format("it within {:.3g} times", options.wide_bracket);
+  const std::optional<double> wide_budget =
+      budget_for_excess(bracket, *pace, (options.wide_bracket - 1.0) * bracket.lower, options);
+  const std::string reach = fmt::format("even --bound-budget {:.3g} ({:.3g} times this one) would not bring ",
+                                        options.certified_bounds.budget_seconds * options.extrapolate_budget_up_to,
+                                        options.extrapolate_budget_up_to);
+  std::string text = fmt::format(
+      "; per doubling of its work, its excess over the value attained fell to {:.2g} of itself lately: at that pace {}",
+      *pace, wide_budget ? fmt::format("--bound-budget {:.3g} would bring {}", *wide_budget, wide) : reach + wide);
+  if (const std::optional<double> L = L_for_usable_theta(d, bracket, options)) {
+    const std::string usable = fmt::format("theta within {:.3g} times its value on the value attained", options.theta_within);
+    const std::optional<double> usable_budget = budget_for_excess(bracket, *pace, *L - bracket.lower, options);
+    if (usable_budget)
+      text += fmt::format(", and --bound-budget {:.3g} would bring {}", *usable_budget, usable);
+    else
+      text += (wide_budget ? ", but " + reach : ", nor ") + usable;
+  }
+  return text + " (an extrapolation, not a bound)";
 }
 
 // A proof far above the value attained is still a proof, but the gains pay for the gap: named for the constant the
@@ -456,7 +488,7 @@ void name_a_wide_bracket(Design& d, const DesignOptions& options) {
       "{}'s proven upper end {:.6g} is {:.3g} times the value attained ({:.6g}): the certified gains pay for that gap "
       "(a larger --bound-budget narrows it{}){}",
       used.name, bracket.upper, bracket.upper / bracket.lower, bracket.lower,
-      d.armature.isZero(0.0) ? "; real arms have rotor inertia: --armature" : "", budget_pace(bracket, options)));
+      d.armature.isZero(0.0) ? "; real arms have rotor inertia: --armature" : "", budget_pace(d, bracket, options)));
 }
 
 // The selected norm-bound certificate on its constant's attained value (Design::AtAttained).

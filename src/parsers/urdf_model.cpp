@@ -432,8 +432,11 @@ void velocities_and_friction(const urdf::ModelInterface& robot, const std::vecto
     model.velocity_bounds(i) = velocity;
     if (!(velocity > 0.0)) {
       every_velocity_limit = false;
-      model.missing_velocity_bounds += fmt::format("{}joint '{}' has <limit velocity=\"{}\">",
-                                                   model.missing_velocity_bounds.empty() ? "" : ", ", joint->name, velocity);
+      // A continuous joint often has no <limit> at all: said so, not as a limit of 0 it does not declare.
+      const std::string declared =
+          joint->limits ? fmt::format("has <limit velocity=\"{}\">", velocity) : std::string("has no <limit>");
+      model.missing_velocity_bounds += fmt::format("{}joint '{}' {}", model.missing_velocity_bounds.empty() ? "" : ", ",
+                                                   joint->name, declared);
     }
     const double damping = joint->dynamics ? joint->dynamics->damping : 0.0;
     if (!(damping >= 0.0) || !std::isfinite(damping))

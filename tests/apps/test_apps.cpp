@@ -360,11 +360,15 @@ TEST(DesignGainsApp, AWideProvenBracketIsNamedInAWarning) {
   const double budget = 0.03 * std::exp2(std::log2(0.5 * lower / (upper - lower)) / std::log2(pace));
   std::array<char, 160> expected{};
   std::snprintf(expected.data(), expected.size(),
-                "fell to %.2g of itself lately: at that pace --bound-budget %.3g would bring it within 1.5 times (an "
-                "extrapolation, not a bound)",
+                "fell to %.2g of itself lately: at that pace --bound-budget %.3g would bring it within 1.5 times, and ",
                 pace, budget);
   const std::string extrapolated = warnings(paced);
   EXPECT_NE(extrapolated.find(expected.data()), std::string::npos) << expected.data() << "\n" << extrapolated;
+  // and the budget for θ within 1.1 times its value on the value attained (Design tests check it through θ(L)).
+  EXPECT_NE(extrapolated.find("--bound-budget 0.204 would bring theta within 1.1 times its value on the value attained "
+                              "(an extrapolation, not a bound)"),
+            std::string::npos)
+      << extrapolated;
   const std::string converged = warnings(run("design-gains", "--robot pendubot --gamma 1.27 --quiet --json"));
   EXPECT_EQ(converged.find("times the value attained"), std::string::npos) << converged;
   // Named scaled, with L_T's proof behind: the warning is L_T's.

@@ -191,6 +191,49 @@ TEST(Design, TheProofsPriceIsTheCertificateOnTheAttainedValue) {
   EXPECT_EQ(at_theta.at_attained->rate, obsgain::tight_rate(70.0, 4900.0, at_theta.at_attained->L));
 }
 
+// The wide bracket's warning carries the search's pace on to two budgets: the bracket within 1.5 times, and θ within
+// 1.1 times its value on the value attained. The Pendubot's L_joint bracket at 0.2 ms, with a trace whose excess fell
+// to 0.4 of itself in the last doubling: each budget printed, taken back through that pace, gives its target.
+TEST(Design, TheWideBracketsWarningExtrapolatesTheBudgetForAUsableTheta) {
+  obsgain::DesignOptions wide;
+  wide.gamma = 1.27;
+  wide.certificate = obsgain::CertificateKind::tight;
+  wide.certified_bounds.budget_seconds = 2e-4;
+  const obsgain::Model pendubot = obsgain::pendubot();
+  obsgain::BoundReport bounds = obsgain::design_gains(pendubot, wide).bounds;
+  obsgain::BoundBracket& joint = bounds.L_joint_bracket;
+  ASSERT_GT(joint.upper, 2.0 * joint.lower);
+  const double excess = joint.upper - joint.lower;
+  joint.stop = obsgain::SearchStop::budget;
+  joint.work = 2e-4;
+  joint.trace = {{1e-4, joint.lower + excess / 0.4}};
+  ASSERT_NEAR(*obsgain::excess_per_doubling(joint), 0.4, 1e-12);
+  const obsgain::Design d = obsgain::design_from_bounds(pendubot, bounds, wide);
+  const auto budget_for = [&](const std::string& what) {
+    for (const std::string& w : d.warnings) {
+      const auto end = w.find(" would bring " + what);
+      if (end == std::string::npos) continue;
+      const auto start = w.rfind("--bound-budget ", end) + std::string("--bound-budget ").size();
+      return std::stod(w.substr(start, end - start));
+    }
+    ADD_FAILURE() << "no budget for " << what << " in " << ::testing::PrintToString(d.warnings);
+    return 0.0;
+  };
+  // The excess at a budget, by the pace: 0.4 per doubling from 2e-4.
+  const auto L_at = [&](double budget) { return joint.lower + excess * std::pow(0.4, std::log2(budget / 2e-4)); };
+  // Three digits printed: each budget within 0.5 %, so the excess at it within 0.7 % (0.4 per doubling).
+  EXPECT_NEAR(L_at(budget_for("it within 1.5 times")) / joint.lower, 1.5, 4e-3);
+  const auto theta = [&](double L) { return obsgain::tight_theta_star(d.alpha, d.beta, 1.27 / (1.0 - d.rate_margin), L); };
+  EXPECT_NEAR(theta(L_at(budget_for("theta within 1.1 times"))) / theta(joint.lower), 1.1, 4e-3);
+  // At 0.7 per doubling neither is within 64 times the budget: said once, for both.
+  joint.trace = {{1e-4, joint.lower + excess / 0.7}};
+  const std::string slow = obsgain::design_from_bounds(pendubot, bounds, wide).warnings.back();
+  EXPECT_NE(slow.find("at that pace even --bound-budget 0.0128 (64 times this one) would not bring it within 1.5 times, "
+                      "nor theta within 1.1 times its value on the value attained (an extrapolation, not a bound)"),
+            std::string::npos)
+      << slow;
+}
+
 TEST(Design, ScaledCertificateRestsOnTheComputedLJointOnly) {
   obsgain::DesignOptions o;
   o.bound_method = obsgain::BoundMethod::numeric;  // bounds are not under test here

@@ -427,4 +427,17 @@ TEST(UrdfQuirks, CadLimitsAreRefusedNamingTheJointAndTheOverride) {
   EXPECT_TRUE(obsgain::design_gains(model, options).selected().observer.certified);
 }
 
+// A continuous joint without a <limit> element (the RRBot of gazebo_ros_demos): the note says it has none, not that
+// it declares a velocity of 0.
+TEST(UrdfQuirks, AJointWithoutALimitIsNamedAsHavingNone) {
+  std::string urdf = kPiecesUrdf;
+  const std::string j1 = R"(<joint name="j1" type="revolute">)", limit = R"(<limit lower="-3" upper="3" effort="10" velocity="2"/>)";
+  urdf.replace(urdf.find(j1), j1.size(), R"(<joint name="j1" type="continuous">)");
+  urdf.replace(urdf.find(limit), limit.size(), "");
+  const obsgain::Model model = obsgain::load_robot({write_temp_file("no_limit.urdf", urdf)});
+  EXPECT_TRUE(model.joints[0].continuous);
+  EXPECT_EQ(model.velocity_bounds.size(), 0);
+  EXPECT_EQ(model.missing_velocity_bounds, "joint 'j1' has no <limit>");
+}
+
 }  // namespace

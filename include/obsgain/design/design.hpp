@@ -39,8 +39,10 @@ struct DesignOptions {
   // (L_T for the scaled one, else L_joint) exceeds the value attained by this factor.
   double wide_bracket = 1.5;
   // The warning also extrapolates the search's own pace (excess_per_doubling, bounds.hpp) to the budget that would
-  // bring the bracket within that factor, up to this multiple of the budget given; beyond it, it says so.
+  // bring the bracket within that factor, and θ within theta_within of its value on the value attained (the bar
+  // docs/theory.md sets for gains a controller runs), up to this multiple of the budget given; beyond it, it says so.
   double extrapolate_budget_up_to = 64.0;
+  double theta_within = 1.1;
   Eigen::VectorXd velocity_bounds;  // empty: the model's own
   // certified: interval branch and bound; a model that cannot be evaluated on intervals then gets an
   // estimate that is never called certified. numeric: the optimisers' lower estimates, by request.
