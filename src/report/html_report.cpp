@@ -11,8 +11,8 @@
 #include <cerrno>
 #include <cmath>
 #include <filesystem>
-#include <optional>
 #include <fstream>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <utility>
