@@ -28,10 +28,12 @@ nlohmann::json bound_json(const BoundMaximum& m) {
   return j;
 }
 
-// The text report's note after a bracket: nothing when the gap was reached.
-std::string stop_note(SearchStop stop) {
-  const std::string reason = stop_text(stop).reason;
-  return reason.empty() ? reason : " (" + reason + ")";
+// The text report's note after a bracket: nothing when the gap was reached; else what stopped it, and its pace then.
+std::string stop_note(const BoundBracket& b) {
+  const std::string reason = stop_text(b.stop).reason;
+  const std::optional<double> pace = excess_per_doubling(b);
+  if (reason.empty()) return reason;
+  return " (" + reason + (pace ? fmt::format("; excess x {:.2g} per doubling of the work", *pace) : std::string()) + ")";
 }
 
 nlohmann::json bracket_json(const BoundBracket& b) {
@@ -360,7 +362,7 @@ std::string format_bounds(const Design& d) {
       out << fmt::format("  {:<8} [{:.10g}, {:.10g}]  {}, {} boxes, {:.2f} s{}\n", name, k->lower, k->upper,
                          std::isfinite(k->upper) ? fmt::format("gap {:.1e}", (k->upper - k->lower) / k->upper)
                                                  : std::string("no finite upper bound yet"),
-                         k->boxes, k->seconds, stop_note(k->stop));
+                         k->boxes, k->seconds, stop_note(*k));
   }
   out << fmt::format("  {:<8} {:>14.7f}\n", "||F||", b.F_norm);
   out << fmt::format("  {:<8} {:>14.7f}   = M0 (B + ||F||)\n", "L_paper", b.L_paper);

@@ -387,12 +387,13 @@ TEST(DesignGainsApp, AWideProvenBracketIsNamedInAWarning) {
   EXPECT_EQ(narrow.find("times the value attained"), std::string::npos) << narrow;
 }
 
-// The report's bounds table gives a stopped search's pace beside what stopped it, as the JSON has it: the two-link arm's
-// L_joint at this budget, its excess falling to 0.032 of itself per doubling of the work (measured).
+// The report's bounds table, and the text report's brackets, give a stopped search's pace beside what stopped it, as the
+// JSON has it: the two-link arm's L_joint at this budget, its excess falling to 0.032 of itself per doubling of the work
+// (measured).
 TEST(VerifyBoundsApp, TheBoundsTableGivesAStoppedSearchsPace) {
   const std::string out = ::testing::TempDir() + "/obsgain_paced_report";
   const AppRun r = run("verify-bounds", "--robot " + std::string(OBSGAIN_EXAMPLES_DIR) +
-                                            "/two_link_arm.json --gamma 5 --bound-budget 0.001 --trials 4 --quiet --out " + out);
+                                            "/two_link_arm.json --gamma 5 --bound-budget 0.001 --trials 4 --out " + out);
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const nlohmann::json joint = read_json(out + "/report.json")["certified"]["L_joint"];
   ASSERT_TRUE(joint["excess_per_doubling"].is_number()) << joint.dump();
@@ -402,6 +403,10 @@ TEST(VerifyBoundsApp, TheBoundsTableGivesAStoppedSearchsPace) {
                 joint["excess_per_doubling"].get<double>());
   const std::string html = read_text(out + "/report.html");
   EXPECT_NE(html.find(cell.data()), std::string::npos) << cell.data();
+  std::array<char, 100> line{};
+  std::snprintf(line.data(), line.size(), "(stopped by the budget, --bound-budget; excess x %.2g per doubling of the work)\n",
+                joint["excess_per_doubling"].get<double>());
+  EXPECT_NE(r.out.find(line.data()), std::string::npos) << line.data() << r.out;
   // A search that reached its gap, or stopped with no point in its first half, has no pace to show.
   EXPECT_NE(html.find("<td>budget</td><td>q = "), std::string::npos);
 }
