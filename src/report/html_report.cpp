@@ -12,7 +12,6 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
-#include <optional>
 #include <sstream>
 #include <string>
 #include <utility>
@@ -335,9 +334,8 @@ std::string model_section(const VerificationReport& r) {
 
 // What stopped an unfinished search, and its pace then: what a larger budget would buy (docs/usage.md).
 std::string search_end(const BoundBracket& k) {
-  const std::optional<double> pace = excess_per_doubling(k);
-  const std::string stop = escape(stop_text(k.stop).name);
-  return pace ? fmt::format("{}; excess × {:.2g} per doubling", stop, *pace) : stop;
+  const std::string stop = escape(stop_text(k.stop).name), pace = pace_text(k);
+  return pace.empty() ? stop : stop + "; " + escape(pace);
 }
 
 std::string bound_row(const BoundReport& b, const std::string& name, const BoundMaximum& m, const BoundBracket& k) {
@@ -375,8 +373,9 @@ std::string bounds_section(const VerificationReport& r) {
        "(upper − lower)/upper. <i>search</i>: whether the search reached the gap target, or what stopped it first: "
        "<i>budget</i> (--bound-budget), <i>boxes</i> (the box limit), <i>wall-clock limit</i> (the safety limit: the "
        "bracket may differ between runs), or <i>race</i> (L_joint and L_T each searched a first share of their budget, "
-       "and the other's upper end was then lower). <i>excess × p per doubling</i>: the search's pace lately, its "
-       "excess over the value attained multiplied by p per doubling of its work (an observation, not a bound). "
+       "and the other's upper end was then lower). <i>excess x p per doubling of the work</i>: the search's pace "
+       "lately, its excess over the value attained multiplied by p per doubling of its work (an observation, not a "
+       "bound). "
        "<i>boxes</i>: interval boxes of joint positions the branch and bound examined. "
        "<i>NLopt</i>, <i>Ipopt</i>: the two optimisers' attained values.</p>\n"
     << "<p>||F|| = " << number(b.F_norm) << ", L_paper = M0 (B + ||F||) = " << number(b.L_paper)

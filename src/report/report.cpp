@@ -30,10 +30,9 @@ nlohmann::json bound_json(const BoundMaximum& m) {
 
 // The text report's note after a bracket: nothing when the gap was reached; else what stopped it, and its pace then.
 std::string stop_note(const BoundBracket& b) {
-  const std::string reason = stop_text(b.stop).reason;
-  const std::optional<double> pace = excess_per_doubling(b);
+  const std::string reason = stop_text(b.stop).reason, pace = pace_text(b);
   if (reason.empty()) return reason;
-  return " (" + reason + (pace ? fmt::format("; excess x {:.2g} per doubling of the work", *pace) : std::string()) + ")";
+  return " (" + reason + (pace.empty() ? pace : "; " + pace) + ")";
 }
 
 nlohmann::json bracket_json(const BoundBracket& b) {
@@ -63,6 +62,11 @@ StopText stop_text(SearchStop stop) {
       return {"race", "stopped after its first share: the other constant's upper end was lower"};
   }
   return {"", ""};
+}
+
+std::string pace_text(const BoundBracket& bracket) {
+  const std::optional<double> pace = excess_per_doubling(bracket);
+  return pace ? fmt::format("excess x {:.2g} per doubling of the work", *pace) : std::string();
 }
 
 std::string format_vector(const Eigen::VectorXd& v) {

@@ -399,7 +399,7 @@ TEST(VerifyBoundsApp, TheBoundsTableGivesAStoppedSearchsPace) {
   ASSERT_TRUE(joint["excess_per_doubling"].is_number()) << joint.dump();
   EXPECT_NEAR(joint["excess_per_doubling"].get<double>(), 0.031578, 1e-5);  // counted work (rules 29)
   std::array<char, 80> cell{};
-  std::snprintf(cell.data(), cell.size(), "<td>budget; excess × %.2g per doubling</td>",
+  std::snprintf(cell.data(), cell.size(), "<td>budget; excess x %.2g per doubling of the work</td>",
                 joint["excess_per_doubling"].get<double>());
   const std::string html = read_text(out + "/report.html");
   EXPECT_NE(html.find(cell.data()), std::string::npos) << cell.data();

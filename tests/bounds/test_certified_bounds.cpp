@@ -273,7 +273,7 @@ TEST(ArmBrackets, LongSearchesReportProgress) {
   const obsgain::Model arm = obsgain::load_robot({examples + "/arm3.urdf"});
   const obsgain::BoundReport numeric = light_search(arm);
   obsgain::CertifiedOptions options;
-  options.budget_seconds = 4.0;  // L_joint gets 3.8: about two seconds of wall time on an idle machine of the suite's
+  options.budget_seconds = 4.0;  // L_joint gets 3.8: about two seconds of wall time on an idle suite machine
   options.relative_gap = 0.0;    // the budget ends every search, whatever the machine's pace
   std::vector<obsgain::SearchProgress> reports;
   options.progress = [&](const obsgain::SearchProgress& p) { reports.push_back(p); };

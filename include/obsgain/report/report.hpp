@@ -25,6 +25,9 @@ struct StopText {
   const char* reason;
 };
 StopText stop_text(SearchStop stop);
+// A stopped search's pace for the human reports ("excess x 0.55 per doubling of the work", excess_per_doubling); ""
+// when it has none.
+std::string pace_text(const BoundBracket& bracket);
 
 // "(1, 2.5)": vectors in the human reports.
 std::string format_vector(const Eigen::VectorXd& v);
