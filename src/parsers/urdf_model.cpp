@@ -357,6 +357,15 @@ void parse(const std::string& path, const std::string& source, ParsedUrdf& parse
   if (!parsed.robot || error.any()) throw InputError(fmt::format("{}: not a valid URDF: {}", source, error.message));
 }
 
+// A locked joint is lumped at one position; a <mimic> of a chain joint moves with it, and lumping it would give M
+// without its motion: refused, with the way out.
+void check_not_coupled(const urdf::Joint& joint, const std::set<std::string>& chain_joints, const std::string& source) {
+  if (movable(joint) && joint.mimic && chain_joints.count(joint.mimic->joint_name))
+    throw InputError(fmt::format("{}: joint '{}' follows the chain joint '{}' (<mimic>): a joint coupled to the chain is "
+                                 "not modelled; end the chain above '{}' with --tip-link",
+                                 source, joint.name, joint.mimic->joint_name, joint.mimic->joint_name));
+}
+
 // The chain's joints and lumped bodies along `path`, with each movable joint's name and domain. Movable joints start
 // a new body; everything rigidly attached (fixed joints, locked mimic joints, side branches locked at their stated
 // positions) is lumped into the body it hangs from. Whatever is attached to the base itself is the fixed world.
@@ -373,8 +382,11 @@ BuiltChain build_chain(const urdf::ModelInterface& robot, const std::string& bas
                        const std::string& source) {
   BuiltChain built;
   SerialChain& chain = built.chain;
-  std::set<std::string> on_path;
-  for (const auto& joint : path) on_path.insert(joint->name);
+  std::set<std::string> on_path, chain_joints;
+  for (const auto& joint : path) {
+    on_path.insert(joint->name);
+    if (chain_candidate(*joint)) chain_joints.insert(joint->name);
+  }
   Eigen::Isometry3d placement = Eigen::Isometry3d::Identity();  // current link in the current body's frame
   std::function<void(const urdf::Link&, const Eigen::Isometry3d&)> lump_subtree = [&](const urdf::Link& link,
                                                                                         const Eigen::Isometry3d& T) {
@@ -382,6 +394,7 @@ BuiltChain build_chain(const urdf::ModelInterface& robot, const std::string& bas
     for (const auto& joint : link.child_joints) {
       if (on_path.count(joint->name)) continue;
       check_free_joint(*joint, !chain.bodies.empty(), source, built.held_fixed);
+      check_not_coupled(*joint, chain_joints, source);
       const double position = movable(*joint) ? locked_position(robot, *joint) : 0.0;
       if (movable(*joint) && !chain.bodies.empty()) built.locked.push_back(fmt::format("'{}' at {:.4g}", joint->name, position));
       lump_subtree(*robot.getLink(joint->child_link_name), T * joint_transform(*joint, position));
@@ -408,6 +421,7 @@ BuiltChain build_chain(const urdf::ModelInterface& robot, const std::string& bas
           joint_domain(*joint, index < options.joint_limits.size() ? &options.joint_limits[index] : nullptr, source));
       placement = Eigen::Isometry3d::Identity();
     } else {
+      check_not_coupled(*joint, chain_joints, source);
       const double position = movable(*joint) ? locked_position(robot, *joint) : 0.0;
       if (movable(*joint)) built.locked.push_back(fmt::format("'{}' at {:.4g}", joint->name, position));
       placement = placement * joint_transform(*joint, position);

@@ -279,9 +279,17 @@ std::string bracket_gaps(const Design& d) {
   const Design::UsedConstant used = d.used_constant();
   if (!used.bracket) return largest;
   std::string text = fmt::format("relative gap of {}, which the design uses, {:.1e}", used.name, gap(*used.bracket));
-  if (d.at_attained && d.target_gamma)  // the proof's price in θ (Design::AtAttained)
+  const double theta = d.selected().observer.theta;
+  if (d.at_attained && d.target_gamma && theta > d.at_attained->theta * (1.0 + 1e-4))  // the proof's price in θ
     text += fmt::format(" (on its attained value the same certificate takes θ = {}, this design {:.4g} times that)",
-                        number(d.at_attained->theta), d.selected().observer.theta / d.at_attained->theta);
+                        number(d.at_attained->theta), theta / d.at_attained->theta);
+  else if (d.at_attained && d.target_gamma)
+    text += " (on its attained value the same certificate takes the same θ within 1e-4)";
+  if (d.other_at_attained && d.target_gamma)
+    text += fmt::format("; on {}'s attained value the {} certificate takes θ = {}, as the numeric estimate does (this "
+                        "design {:.4g} times that)",
+                        d.other_at_attained->constant, other_certificate(d),
+                        number(d.other_at_attained->theta), theta / d.other_at_attained->theta);
   return used.bracket == worst->second ? text : text + "; " + largest;
 }
 

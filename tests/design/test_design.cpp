@@ -191,6 +191,48 @@ TEST(Design, TheProofsPriceIsTheCertificateOnTheAttainedValue) {
   EXPECT_EQ(at_theta.at_attained->rate, obsgain::tight_rate(70.0, 4900.0, at_theta.at_attained->L));
 }
 
+// Where the design rests on L_joint because L_T's proof went less far, the proof's price names the scaled certificate
+// on L_T's attained value too: the numeric estimate's design. On the Pendubot at 3 ms L_joint's bracket closes (1e-6)
+// and L_T's stops after its first share at 60.64 against 21.10 attained: the tight design's θ is its own floor, and
+// twice the estimate's 33.03.
+TEST(Design, TheProofsPriceNamesTheEstimatesCertificateWhereItsProofWentLessFar) {
+  obsgain::DesignOptions o;
+  o.gamma = 1.27;
+  o.certified_bounds.budget_seconds = 3e-3;
+  const obsgain::Model pendubot = obsgain::pendubot();
+  const obsgain::Design d = obsgain::design_gains(pendubot, o);
+  ASSERT_EQ(d.certificate, obsgain::CertificateKind::tight);
+  ASSERT_GT(d.bounds.L_scaled_bracket.upper, 2.0 * d.bounds.L_scaled_bracket.lower);
+  ASSERT_TRUE(d.other_at_attained.has_value());
+  EXPECT_STREQ(d.other_at_attained->constant, "L_T");
+  EXPECT_EQ(d.other_at_attained->L, d.bounds.L_scaled_bracket.lower);
+  o.bound_method = obsgain::BoundMethod::numeric;
+  const obsgain::Design numeric = obsgain::design_gains(pendubot, o);
+  ASSERT_EQ(numeric.certificate, obsgain::CertificateKind::scaled);
+  EXPECT_NEAR(d.other_at_attained->theta, numeric.selected().observer.theta, 1e-6 * numeric.selected().observer.theta);
+  EXPECT_NEAR(d.selected().observer.theta / d.other_at_attained->theta, 65.66857 / 33.03015, 1e-5);
+  EXPECT_EQ(obsgain::to_json(d)["design"]["other_at_attained"]["theta"], d.other_at_attained->theta);
+  EXPECT_NE(obsgain::format_report(d).find("on L_T's attained value 21.10171 the scaled certificate takes theta = "
+                                           "33.03015, as the numeric estimate does; this design's is 1.988 times it"),
+            std::string::npos);
+  // For a given θ: the rate the scaled certificate proves on L_T's attained value, above the design's.
+  o.bound_method = obsgain::BoundMethod::certified;
+  o.gamma.reset();
+  o.theta = 70.0;
+  const obsgain::Design at_theta = obsgain::design_gains(pendubot, o);
+  ASSERT_TRUE(at_theta.other_at_attained.has_value());
+  EXPECT_EQ(at_theta.other_at_attained->rate, obsgain::tight_rate(70.0, 4900.0, at_theta.bounds.L_scaled_bracket.lower));
+  EXPECT_GT(at_theta.other_at_attained->rate, 2.0 * at_theta.selected().rate);
+  // With both brackets closed the scaled design is its own floor, and the tight one on L_joint's value is no better.
+  o.theta.reset();
+  o.gamma = 1.27;
+  o.certified_bounds.budget_seconds = 120;
+  const obsgain::Design closed = obsgain::design_gains(pendubot, o);
+  EXPECT_EQ(closed.certificate, obsgain::CertificateKind::scaled);
+  EXPECT_FALSE(closed.other_at_attained.has_value());
+  EXPECT_TRUE(obsgain::to_json(closed)["design"]["other_at_attained"].is_null());
+}
+
 // The wide bracket's warning carries the search's pace on to two budgets: the bracket within 1.5 times, and θ within
 // 1.1 times its value on the value attained. The Pendubot's L_joint bracket at 0.2 ms, with a trace whose excess fell
 // to 0.4 of itself in the last doubling: each budget printed, taken back through that pace, gives its target.

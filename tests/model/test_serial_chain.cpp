@@ -440,4 +440,25 @@ TEST(UrdfQuirks, AJointWithoutALimitIsNamedAsHavingNone) {
   EXPECT_EQ(model.missing_velocity_bounds, "joint 'j1' has no <limit>");
 }
 
+// A chain ending at a finger makes the finger's joint a chain joint, and its <mimic> moves with it: locking the mimic
+// would leave its motion out of M. Refused, naming both joints and --tip-link; ending at the hand locks both.
+TEST(UrdfQuirks, AMimicOfAChainJointIsRefused) {
+  const std::string path = write_temp_file("pieces.urdf", kPiecesUrdf);
+  obsgain::RobotSource finger{path};
+  finger.tip_link = "left";
+  try {
+    obsgain::load_robot(finger);
+    FAIL() << "a mimic of a chain joint was lumped";
+  } catch (const obsgain::InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("joint 'finger_right' follows the chain joint 'finger_left' (<mimic>): a joint "
+                                         "coupled to the chain is not modelled; end the chain above 'finger_left' "
+                                         "with --tip-link"),
+              std::string::npos)
+        << e.what();
+  }
+  obsgain::RobotSource hand{path};
+  hand.tip_link = "hand";
+  EXPECT_EQ(obsgain::load_robot(hand).dof(), 2);
+}
+
 }  // namespace

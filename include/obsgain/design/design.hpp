@@ -134,6 +134,10 @@ struct Design {
     double L = 0.0, theta = 0.0, rate = 0.0;
   };
   std::optional<AtAttained> at_attained;
+  // The other norm-bound certificate on its constant's attained value (the scaled one on L_T where the design rests on
+  // L_joint, or the reverse), where it does better than `at_attained`: the design the numeric estimate chooses, whose
+  // constant's proof went less far (docs/theory.md, "The proof's price").
+  std::optional<AtAttained> other_at_attained;
   std::vector<std::string> notes;     // what loading the model (chain, lumped bodies, armature) and the search decided
   std::vector<std::string> warnings;
   // The certificate is a proof only if every bound it uses is proven: certified bounds, or an L given by the
