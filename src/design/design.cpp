@@ -492,9 +492,9 @@ void name_a_wide_bracket(Design& d, const DesignOptions& options) {
 }
 
 // The norm-bound certificate (the same lemma, tight on L_joint or scaled on L_T) on a constant's attained value.
-Design::AtAttained at_attained_value(const Design& d, const DesignOptions& options, const char* constant, double L) {
+Design::AtAttained at_attained_value(const Design& d, const DesignOptions& options, bool on_scaled, double L) {
   const CertifiedObserver& o = d.selected().observer;
-  Design::AtAttained a{constant, L};
+  Design::AtAttained a{on_scaled ? "L_T" : "L_joint", on_scaled ? "scaled" : "tight", L};
   a.theta = options.gamma ? tight_theta_star(d.alpha, d.beta, *options.gamma / (1.0 - d.rate_margin), L) : o.theta;
   a.rate = options.gamma ? *options.gamma : tight_rate(o.k1, o.k2, L);
   return a;
@@ -507,14 +507,15 @@ void compare_with_attained(Design& d, const DesignOptions& options) {
   const Design::UsedConstant used = d.used_constant();
   const bool norm_bound = d.certificate == CertificateKind::tight || d.certificate == CertificateKind::scaled;
   if (!d.bounds.certified || !used.bracket || !norm_bound || !(used.bracket->lower > 0.0)) return;
-  d.at_attained = at_attained_value(d, options, used.name, used.bracket->lower);
-  if (!scalable(d)) return;
   const bool on_scaled = d.certificate == CertificateKind::scaled;
+  d.at_attained = at_attained_value(d, options, on_scaled, used.bracket->lower);
+  if (!scalable(d)) return;
   const BoundBracket& other = on_scaled ? d.bounds.L_joint_bracket : d.bounds.L_scaled_bracket;
   if (!(other.lower > 0.0)) return;
-  const Design::AtAttained a = at_attained_value(d, options, on_scaled ? "L_joint" : "L_T", other.lower);
-  const bool better = options.gamma ? a.theta < d.at_attained->theta * (1.0 - 1e-4)
-                                    : a.rate > d.at_attained->rate * (1.0 + 1e-4);
+  const Design::AtAttained a = at_attained_value(d, options, !on_scaled, other.lower);
+  constexpr double same = Design::AtAttained::same_within;
+  const bool better = options.gamma ? a.theta < d.at_attained->theta * (1.0 - same)
+                                    : a.rate > d.at_attained->rate * (1.0 + same);
   if (better) d.other_at_attained = a;
 }
 

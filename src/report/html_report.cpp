@@ -280,15 +280,16 @@ std::string bracket_gaps(const Design& d) {
   if (!used.bracket) return largest;
   std::string text = fmt::format("relative gap of {}, which the design uses, {:.1e}", used.name, gap(*used.bracket));
   const double theta = d.selected().observer.theta;
-  if (d.at_attained && d.target_gamma && theta > d.at_attained->theta * (1.0 + 1e-4))  // the proof's price in θ
+  constexpr double same = Design::AtAttained::same_within;
+  if (d.at_attained && d.target_gamma && theta > d.at_attained->theta * (1.0 + same))  // the proof's price in θ
     text += fmt::format(" (on its attained value the same certificate takes θ = {}, this design {:.4g} times that)",
                         number(d.at_attained->theta), theta / d.at_attained->theta);
   else if (d.at_attained && d.target_gamma)
-    text += " (on its attained value the same certificate takes the same θ within 1e-4)";
+    text += fmt::format(" (on its attained value the same certificate takes the same θ within {:g})", same);
   if (d.other_at_attained && d.target_gamma)
     text += fmt::format("; on {}'s attained value the {} certificate takes θ = {}, as the numeric estimate does (this "
                         "design {:.4g} times that)",
-                        d.other_at_attained->constant, other_certificate(d),
+                        d.other_at_attained->constant, d.other_at_attained->certificate,
                         number(d.other_at_attained->theta), theta / d.other_at_attained->theta);
   return used.bracket == worst->second ? text : text + "; " + largest;
 }

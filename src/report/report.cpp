@@ -69,10 +69,6 @@ std::string pace_text(const BoundBracket& bracket) {
   return pace ? fmt::format("excess x {:.2g} per doubling of the work", *pace) : std::string();
 }
 
-const char* other_certificate(const Design& d) {
-  return d.certificate == CertificateKind::scaled ? "tight" : "scaled";
-}
-
 std::string format_vector(const Eigen::VectorXd& v) {
   std::string s = "(";
   for (Eigen::Index i = 0; i < v.size(); ++i) s += fmt::format("{}{:.6g}", i ? ", " : "", v(i));
@@ -237,7 +233,8 @@ nlohmann::json design_json(const Design& d) {
   design["rate_margin"] = d.rate_margin;
   if (d.certificate == CertificateKind::scaled) design["scaling"] = to_json(d.bounds.scaling);
   const auto at_attained = [](const std::optional<Design::AtAttained>& a) {
-    return a ? nlohmann::json{{"constant", a->constant}, {"L", a->L}, {"theta", a->theta}, {"gamma", a->rate}}
+    return a ? nlohmann::json{{"constant", a->constant}, {"certificate", a->certificate}, {"L", a->L},
+                              {"theta", a->theta}, {"gamma", a->rate}}
              : nlohmann::json(nullptr);
   };
   design["at_attained"] = at_attained(d.at_attained);
@@ -425,16 +422,17 @@ std::string format_certificates(const Design& d) {
 std::string format_price(const Design& d) {
   std::ostringstream out;
   const CertifiedObserver& o = d.selected().observer;
-  if (const auto& a = d.at_attained; a && d.target_gamma && o.theta > a->theta * (1.0 + 1e-4))
+  constexpr double same = Design::AtAttained::same_within;
+  if (const auto& a = d.at_attained; a && d.target_gamma && o.theta > a->theta * (1.0 + same))
     out << fmt::format("  the proof's price: on {}'s attained value {:.7g} the same certificate takes theta = {:.7g}; "
                        "this design's is {:.4g} times it (a larger --bound-budget lowers that)\n",
                        a->constant, a->L, a->theta, o.theta / a->theta);
   else if (a && d.target_gamma)
-    out << fmt::format("  the proof's price: none (on {}'s attained value {:.7g} theta is the same within 1e-4)\n",
-                       a->constant, a->L);
-  else if (a && a->rate <= d.selected().rate * (1.0 + 1e-4))
-    out << fmt::format("  the proof's price: none (on {}'s attained value {:.7g} the rate is the same within 1e-4)\n",
-                       a->constant, a->L);
+    out << fmt::format("  the proof's price: none (on {}'s attained value {:.7g} theta is the same within {:g})\n",
+                       a->constant, a->L, same);
+  else if (a && a->rate <= d.selected().rate * (1.0 + same))
+    out << fmt::format("  the proof's price: none (on {}'s attained value {:.7g} the rate is the same within {:g})\n",
+                       a->constant, a->L, same);
   else if (a)
     out << fmt::format("  the proof's price: on {}'s attained value {:.7g} the same certificate proves {:.7g} 1/s, "
                        "this design {:.7g} 1/s (a larger --bound-budget closes the distance)\n",
@@ -442,11 +440,11 @@ std::string format_price(const Design& d) {
   if (const auto& b = d.other_at_attained; b && d.target_gamma)
     out << fmt::format("  on {}'s attained value {:.7g} the {} certificate takes theta = {:.7g}, as the numeric estimate "
                        "does; this design's is {:.4g} times it ({}'s proof went less far)\n",
-                       b->constant, b->L, other_certificate(d), b->theta, o.theta / b->theta, b->constant);
+                       b->constant, b->L, b->certificate, b->theta, o.theta / b->theta, b->constant);
   else if (b)
     out << fmt::format("  on {}'s attained value {:.7g} the {} certificate proves {:.7g} 1/s, this design {:.7g} 1/s ({}'s "
                        "proof went less far)\n",
-                       b->constant, b->L, other_certificate(d), b->rate, d.selected().rate, b->constant);
+                       b->constant, b->L, b->certificate, b->rate, d.selected().rate, b->constant);
   return out.str();
 }
 

@@ -578,6 +578,7 @@ TEST(VerifyBoundsApp, TheVerdictGivesTheGapOfTheConstantTheDesignUses) {
   const nlohmann::json report = read_json(out + "/report.json");
   EXPECT_EQ(report["certificate"], "scaled");
   EXPECT_EQ(report["design"]["at_attained"]["constant"], "L_T");
+  EXPECT_EQ(report["design"]["at_attained"]["certificate"], "scaled");
   EXPECT_EQ(report["design"]["at_attained"]["L"], report["certified"]["L_scaled"]["lower"]);
   const double theta = report["design"]["theta"], floor = report["design"]["at_attained"]["theta"];
   EXPECT_NEAR(theta / floor, 1.011, 5e-4);
@@ -592,12 +593,14 @@ TEST(VerifyBoundsApp, TheVerdictNamesTheEstimatesCertificateWhereItsProofWentLes
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(read_text(out + "/report.html")
                 .find("relative gap of L_joint, which the design uses, 3.7e-07 (on its attained value the same "
-                      "certificate takes the same θ within 1e-4); on L_T's attained value the scaled certificate takes "
+                      "certificate takes the same θ within 0.0001); on L_T's attained value the scaled certificate takes "
                       "θ = 33.03015, as the numeric estimate does (this design 1.988 times that)"),
             std::string::npos);
   const nlohmann::json report = read_json(out + "/report.json");
   EXPECT_EQ(report["certificate"], "tight");
   EXPECT_EQ(report["design"]["other_at_attained"]["constant"], "L_T");
+  EXPECT_EQ(report["design"]["other_at_attained"]["certificate"], "scaled");
+  EXPECT_EQ(report["design"]["at_attained"]["certificate"], "tight");
   EXPECT_EQ(report["design"]["other_at_attained"]["L"], report["certified"]["L_scaled"]["lower"]);
 }
 

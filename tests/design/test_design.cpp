@@ -148,8 +148,9 @@ TEST(Design, ScaledCertificateIsTheDefaultWhereItIsBetterAndHoldsForTheRealPertu
 // The proof's price (Design::AtAttained): the selected certificate on its constant's attained value. Cross-checked
 // against the numeric design, which reaches the same θ through the optimisers' estimate of that constant (the
 // attained value is at least the estimate, so its θ is at least the numeric one): on the Pendubot, whose brackets
-// close, the three θ agree within 1e-6; with a budget too small to close them, the design's θ is above the price's
-// floor, and the floor is the numeric design's.
+// close, the three θ agree within 1e-6 (the price is none, and the tight certificate on L_joint's attained value is no
+// better: no second line); with a budget too small to close them, the design's θ is above the price's floor, and the
+// floor is the numeric design's.
 TEST(Design, TheProofsPriceIsTheCertificateOnTheAttainedValue) {
   obsgain::DesignOptions o;
   o.gamma = 1.27;
@@ -157,7 +158,13 @@ TEST(Design, TheProofsPriceIsTheCertificateOnTheAttainedValue) {
   const obsgain::Design d = obsgain::design_gains(pendubot, o);
   ASSERT_TRUE(d.at_attained.has_value());
   EXPECT_STREQ(d.at_attained->constant, "L_T");
+  EXPECT_STREQ(d.at_attained->certificate, "scaled");
   EXPECT_EQ(d.at_attained->L, d.bounds.L_scaled_bracket.lower);
+  EXPECT_FALSE(d.other_at_attained.has_value());
+  EXPECT_TRUE(obsgain::to_json(d)["design"]["other_at_attained"].is_null());
+  EXPECT_NE(obsgain::format_report(d).find("the proof's price: none (on L_T's attained value 21.10171 theta is the "
+                                           "same within 0.0001)"),
+            std::string::npos);
   o.bound_method = obsgain::BoundMethod::numeric;
   const obsgain::Design numeric = obsgain::design_gains(pendubot, o);
   EXPECT_FALSE(numeric.at_attained.has_value());  // estimates only: no proof, no price
@@ -173,6 +180,7 @@ TEST(Design, TheProofsPriceIsTheCertificateOnTheAttainedValue) {
   const obsgain::Design open = obsgain::design_gains(pendubot, wide);
   ASSERT_TRUE(open.at_attained.has_value());
   EXPECT_STREQ(open.at_attained->constant, "L_joint");
+  EXPECT_STREQ(open.at_attained->certificate, "tight");
   ASSERT_GT(open.bounds.L_joint_bracket.upper, 2.0 * open.at_attained->L);
   EXPECT_GT(open.selected().observer.theta, 2.0 * open.at_attained->theta);
   EXPECT_EQ(open.at_attained->theta, obsgain::tight_theta_star(open.alpha, open.beta, 1.27 / (1.0 - open.rate_margin),
@@ -205,6 +213,7 @@ TEST(Design, TheProofsPriceNamesTheEstimatesCertificateWhereItsProofWentLessFar)
   ASSERT_GT(d.bounds.L_scaled_bracket.upper, 2.0 * d.bounds.L_scaled_bracket.lower);
   ASSERT_TRUE(d.other_at_attained.has_value());
   EXPECT_STREQ(d.other_at_attained->constant, "L_T");
+  EXPECT_STREQ(d.other_at_attained->certificate, "scaled");
   EXPECT_EQ(d.other_at_attained->L, d.bounds.L_scaled_bracket.lower);
   o.bound_method = obsgain::BoundMethod::numeric;
   const obsgain::Design numeric = obsgain::design_gains(pendubot, o);
@@ -223,14 +232,6 @@ TEST(Design, TheProofsPriceNamesTheEstimatesCertificateWhereItsProofWentLessFar)
   ASSERT_TRUE(at_theta.other_at_attained.has_value());
   EXPECT_EQ(at_theta.other_at_attained->rate, obsgain::tight_rate(70.0, 4900.0, at_theta.bounds.L_scaled_bracket.lower));
   EXPECT_GT(at_theta.other_at_attained->rate, 2.0 * at_theta.selected().rate);
-  // With both brackets closed the scaled design is its own floor, and the tight one on L_joint's value is no better.
-  o.theta.reset();
-  o.gamma = 1.27;
-  o.certified_bounds.budget_seconds = 120;
-  const obsgain::Design closed = obsgain::design_gains(pendubot, o);
-  EXPECT_EQ(closed.certificate, obsgain::CertificateKind::scaled);
-  EXPECT_FALSE(closed.other_at_attained.has_value());
-  EXPECT_TRUE(obsgain::to_json(closed)["design"]["other_at_attained"].is_null());
 }
 
 // The wide bracket's warning carries the search's pace on to two budgets: the bracket within 1.5 times, and θ within

@@ -130,7 +130,11 @@ struct Design {
   // target (with the same rate margin) and the rate for a given θ. No proof of that constant does better; the distance
   // to the design is what the proof costs, and a larger --bound-budget narrows it. Certified bounds only.
   struct AtAttained {
-    const char* constant = nullptr;  // "L_joint" or "L_T"
+    // Two θ, or two rates, closer than this relative distance are the same in the price lines and in choosing
+    // other_at_attained.
+    static constexpr double same_within = 1e-4;
+    const char* constant = nullptr;     // "L_joint" or "L_T"
+    const char* certificate = nullptr;  // the norm-bound certificate on it: "tight" on L_joint, "scaled" on L_T
     double L = 0.0, theta = 0.0, rate = 0.0;
   };
   std::optional<AtAttained> at_attained;

@@ -28,9 +28,6 @@ StopText stop_text(SearchStop stop);
 // A stopped search's pace for the human reports ("excess x 0.55 per doubling of the work", excess_per_doubling); ""
 // when it has none.
 std::string pace_text(const BoundBracket& bracket);
-// The norm-bound certificate of Design::other_at_attained: the scaled one where the design rests on L_joint, else the
-// tight one.
-const char* other_certificate(const Design& d);
 
 // "(1, 2.5)": vectors in the human reports.
 std::string format_vector(const Eigen::VectorXd& v);
