@@ -10,6 +10,7 @@
 
 #include <Eigen/Geometry>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -197,16 +198,30 @@ RigidBody link_body(const urdf::Link& link, const std::string& source) {
   return body;
 }
 
-// How far along its axis a locked joint sits: the middle of its range (0 for continuous joints), or what its
-// <mimic> says of the joint it follows.
-double locked_position(const urdf::ModelInterface& robot, const urdf::Joint& joint) {
-  if (joint.mimic) {
-    const urdf::JointConstSharedPtr master = robot.getJoint(joint.mimic->joint_name);
-    const double master_position = master && master.get() != &joint && !master->mimic ? locked_position(robot, *master) : 0.0;
-    return joint.mimic->multiplier * master_position + joint.mimic->offset;
+// The joints a <mimic> follows, nearest first: a mimic of a mimic follows its master's master. The list ends at a
+// joint that is no mimic, or before a missing joint or a cycle (which check_mimic refuses).
+std::vector<const urdf::Joint*> mimic_masters(const urdf::ModelInterface& robot, const urdf::Joint& joint) {
+  std::vector<const urdf::Joint*> masters;
+  for (const urdf::Joint* follower = &joint; follower->mimic;) {
+    const urdf::Joint* master = robot.getJoint(follower->mimic->joint_name).get();
+    if (!master || master == &joint || std::find(masters.begin(), masters.end(), master) != masters.end()) break;
+    masters.push_back(master);
+    follower = master;
   }
-  if (joint.type == urdf::Joint::CONTINUOUS || !joint.limits) return 0.0;
-  return 0.5 * (joint.limits->lower + joint.limits->upper);
+  return masters;
+}
+
+// How far along its axis a locked joint sits: the middle of its range (0 for continuous joints), or what its
+// <mimic> says of the joint it follows, in turn through each mimic between.
+double locked_position(const urdf::ModelInterface& robot, const urdf::Joint& joint) {
+  std::vector<const urdf::Joint*> followers = mimic_masters(robot, joint);
+  followers.insert(followers.begin(), &joint);
+  const urdf::Joint& first = *followers.back();  // the first master, which is no mimic (check_mimic)
+  double position =
+      first.type == urdf::Joint::CONTINUOUS || !first.limits ? 0.0 : 0.5 * (first.limits->lower + first.limits->upper);
+  for (auto follower = followers.rbegin() + 1; follower != followers.rend(); ++follower)
+    position = (*follower)->mimic->multiplier * position + (*follower)->mimic->offset;
+  return position;
 }
 
 // The child link's frame in the parent link's frame, the joint at `position`.
@@ -357,13 +372,28 @@ void parse(const std::string& path, const std::string& source, ParsedUrdf& parse
   if (!parsed.robot || error.any()) throw InputError(fmt::format("{}: not a valid URDF: {}", source, error.message));
 }
 
-// A locked joint is lumped at one position; a <mimic> of a chain joint moves with it, and lumping it would give M
-// without its motion: refused, with the way out.
-void check_not_coupled(const urdf::Joint& joint, const std::set<std::string>& chain_joints, const std::string& source) {
-  if (movable(joint) && joint.mimic && chain_joints.count(joint.mimic->joint_name))
-    throw InputError(fmt::format("{}: joint '{}' follows the chain joint '{}' (<mimic>): a joint coupled to the chain is "
-                                 "not modelled; end the chain above '{}' with --tip-link",
-                                 source, joint.name, joint.mimic->joint_name, joint.mimic->joint_name));
+// A locked joint is lumped at one position; a <mimic> of a chain joint (directly, or through other mimics) moves with
+// it, and lumping it would give M without its motion: refused, with the way out. A <mimic> that names no joint of the
+// file, or whose masters loop, gives no position: refused.
+void check_mimic(const urdf::ModelInterface& robot, const urdf::Joint& joint, const std::set<std::string>& chain_joints,
+                 const std::string& source) {
+  if (!movable(joint) || !joint.mimic) return;
+  const std::vector<const urdf::Joint*> masters = mimic_masters(robot, joint);
+  std::string through;
+  for (const urdf::Joint* master : masters) {
+    if (chain_joints.count(master->name))
+      throw InputError(fmt::format("{}: joint '{}' follows the chain joint '{}' (<mimic>{}): a joint coupled to the "
+                                   "chain is not modelled; end the chain above '{}' with --tip-link",
+                                   source, joint.name, master->name, through, master->name));
+    through += fmt::format("{} '{}'", through.empty() ? ", through" : ",", master->name);
+  }
+  const urdf::Joint& last = masters.empty() ? joint : *masters.back();
+  if (!last.mimic) return;
+  if (!robot.getJoint(last.mimic->joint_name))
+    throw InputError(fmt::format("{}: joint '{}' has <mimic joint=\"{}\">, which names no joint of the file", source,
+                                 last.name, last.mimic->joint_name));
+  throw InputError(fmt::format("{}: joint '{}' follows a loop of <mimic> joints (<mimic>{}): it has no position to be "
+                               "locked at", source, joint.name, through));
 }
 
 // The chain's joints and lumped bodies along `path`, with each movable joint's name and domain. Movable joints start
@@ -394,7 +424,7 @@ BuiltChain build_chain(const urdf::ModelInterface& robot, const std::string& bas
     for (const auto& joint : link.child_joints) {
       if (on_path.count(joint->name)) continue;
       check_free_joint(*joint, !chain.bodies.empty(), source, built.held_fixed);
-      check_not_coupled(*joint, chain_joints, source);
+      check_mimic(robot, *joint, chain_joints, source);
       const double position = movable(*joint) ? locked_position(robot, *joint) : 0.0;
       if (movable(*joint) && !chain.bodies.empty()) built.locked.push_back(fmt::format("'{}' at {:.4g}", joint->name, position));
       lump_subtree(*robot.getLink(joint->child_link_name), T * joint_transform(*joint, position));
@@ -421,7 +451,7 @@ BuiltChain build_chain(const urdf::ModelInterface& robot, const std::string& bas
           joint_domain(*joint, index < options.joint_limits.size() ? &options.joint_limits[index] : nullptr, source));
       placement = Eigen::Isometry3d::Identity();
     } else {
-      check_not_coupled(*joint, chain_joints, source);
+      check_mimic(robot, *joint, chain_joints, source);
       const double position = movable(*joint) ? locked_position(robot, *joint) : 0.0;
       if (movable(*joint)) built.locked.push_back(fmt::format("'{}' at {:.4g}", joint->name, position));
       placement = placement * joint_transform(*joint, position);

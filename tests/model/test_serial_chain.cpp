@@ -389,6 +389,17 @@ TEST(UrdfQuirks, DefaultChainIgnoresFixedLeavesAndRefusesSeveralArms) {
 
 namespace {
 
+// The one-line refusal load_robot gives for `source` ("" and a failure where it loads).
+std::string load_refusal(const obsgain::RobotSource& source) {
+  try {
+    obsgain::load_robot(source);
+  } catch (const obsgain::InputError& e) {
+    return e.what();
+  }
+  ADD_FAILURE() << source.robot << " loaded";
+  return "";
+}
+
 // A CAD export: limits 0/0 and velocity 0. Refused naming the joint, the attribute and the override; accepted
 // with --joint-limits and --vmax.
 TEST(UrdfQuirks, CadLimitsAreRefusedNamingTheJointAndTheOverride) {
@@ -396,14 +407,9 @@ TEST(UrdfQuirks, CadLimitsAreRefusedNamingTheJointAndTheOverride) {
   const std::string limit = R"(<limit lower="-2" upper="2" effort="10" velocity="3"/>)";
   cad.replace(cad.find(limit), limit.size(), R"(<limit lower="0" upper="0" effort="0" velocity="0"/>)");
   const std::string path = write_temp_file("cad.urdf", cad);
-  try {
-    obsgain::load_robot({path});
-    ADD_FAILURE() << "limits 0/0 must be refused";
-  } catch (const obsgain::InputError& e) {
-    const std::string what = e.what();
-    EXPECT_NE(what.find("joint 'j2' has <limit lower=\"0\" upper=\"0\">"), std::string::npos) << what;
-    EXPECT_NE(what.find("--joint-limits"), std::string::npos) << what;
-  }
+  const std::string refusal = load_refusal({path});
+  EXPECT_NE(refusal.find("joint 'j2' has <limit lower=\"0\" upper=\"0\">"), std::string::npos) << refusal;
+  EXPECT_NE(refusal.find("--joint-limits"), std::string::npos) << refusal;
   obsgain::RobotSource source{path};
   source.joint_limits = {obsgain::JointDomain{}, obsgain::JointDomain{obsgain::JointType::revolute, false, -1.5, 1.5}};
   const obsgain::Model model = obsgain::load_robot(source);
@@ -441,24 +447,54 @@ TEST(UrdfQuirks, AJointWithoutALimitIsNamedAsHavingNone) {
 }
 
 // A chain ending at a finger makes the finger's joint a chain joint, and its <mimic> moves with it: locking the mimic
-// would leave its motion out of M. Refused, naming both joints and --tip-link; ending at the hand locks both.
-TEST(UrdfQuirks, AMimicOfAChainJointIsRefused) {
-  const std::string path = write_temp_file("pieces.urdf", kPiecesUrdf);
-  obsgain::RobotSource finger{path};
-  finger.tip_link = "left";
-  try {
-    obsgain::load_robot(finger);
-    FAIL() << "a mimic of a chain joint was lumped";
-  } catch (const obsgain::InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("joint 'finger_right' follows the chain joint 'finger_left' (<mimic>): a joint "
-                                         "coupled to the chain is not modelled; end the chain above 'finger_left' "
-                                         "with --tip-link"),
+// would leave its motion out of M. Refused, naming both joints and --tip-link; ending at the hand locks both. A mimic
+// of a mimic follows its master's master: refused where that is a chain joint, naming the joint between, and locked
+// where it is not, through both multipliers and offsets (the left finger at 0.02, the middle one at 0.02, the right
+// one at 2 * 0.02 + 0.001). A mimic of a joint the file does not have, or a loop of mimics, has no position: refused.
+TEST(UrdfQuirks, AMimicOfAChainJointDirectlyOrThroughAnotherIsRefused) {
+  std::string chained = kPiecesUrdf;
+  const std::string mimic = R"(<mimic joint="finger_left"/>)";
+  chained.replace(chained.find(mimic), mimic.size(), R"(<mimic joint="finger_z_middle" multiplier="2" offset="0.001"/>)");
+  chained.insert(chained.find("<transmission"), R"(<joint name="finger_z_middle" type="prismatic"><parent link="hand"/>
+    <child link="middle"/><axis xyz="0 0 1"/><limit lower="0" upper="0.04" effort="10" velocity="0.2"/>
+    <mimic joint="finger_left"/></joint>
+  <link name="middle"><inertial><mass value="0.1"/>
+    <inertia ixx="0.00001" ixy="0" ixz="0" iyy="0.00001" iyz="0" izz="0.00001"/></inertial></link>
+  )");
+  // urdfdom lists a link's child joints by name: finger_right is checked before finger_z_middle.
+  const std::pair<std::string, const char*> cases[] = {
+      {write_temp_file("pieces.urdf", kPiecesUrdf), "(<mimic>): a joint coupled to the chain is not modelled; end the "
+                                                    "chain above 'finger_left' with --tip-link"},
+      {write_temp_file("chained_mimic.urdf", chained), "(<mimic>, through 'finger_z_middle'): a joint coupled"}};
+  for (const auto& [path, how] : cases) {
+    obsgain::RobotSource finger{path};
+    finger.tip_link = "left";
+    const std::string refusal = load_refusal(finger);
+    EXPECT_NE(refusal.find(std::string("joint 'finger_right' follows the chain joint 'finger_left' ") + how),
               std::string::npos)
-        << e.what();
+        << refusal;
+    obsgain::RobotSource hand{path};
+    hand.tip_link = "hand";
+    EXPECT_EQ(obsgain::load_robot(hand).dof(), 2);
   }
-  obsgain::RobotSource hand{path};
+  obsgain::RobotSource hand{cases[1].first};
   hand.tip_link = "hand";
-  EXPECT_EQ(obsgain::load_robot(hand).dof(), 2);
+  std::string notes;
+  for (const auto& note : obsgain::load_robot(hand).notes) notes += note + "\n";
+  EXPECT_NE(notes.find("'finger_left' at 0.02, 'finger_right' at 0.041, 'finger_z_middle' at 0.02"), std::string::npos)
+      << notes;
+  std::string loop = chained, missing = chained;
+  loop.replace(loop.find(mimic), mimic.size(), R"(<mimic joint="finger_right"/>)");
+  missing.replace(missing.find(mimic), mimic.size(), R"(<mimic joint="finger_nowhere"/>)");
+  std::string refusal = load_refusal({write_temp_file("mimic_loop.urdf", loop)});
+  EXPECT_NE(refusal.find("joint 'finger_right' follows a loop of <mimic> joints (<mimic>, through 'finger_z_middle'): "
+                         "it has no position to be locked at"),
+            std::string::npos)
+      << refusal;
+  refusal = load_refusal({write_temp_file("mimic_missing.urdf", missing)});
+  EXPECT_NE(refusal.find("joint 'finger_z_middle' has <mimic joint=\"finger_nowhere\">, which names no joint of the file"),
+            std::string::npos)
+      << refusal;
 }
 
 }  // namespace
