@@ -5,6 +5,7 @@
 #include "obsgain/validation/montecarlo.hpp"
 #include "test_files.hpp"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -102,6 +103,30 @@ TEST(PolytopicSearch, NoCertificateBeyondTheLinearPartsRate) {
   const double rate = search.rate(theta, theta * theta);
   EXPECT_GT(rate, 0.0);
   EXPECT_LT(rate, 0.5 * theta);
+}
+
+// A proof past its budget stops where its counted work says, whatever the thread count: the same boxes, the status
+// naming the budget and the boxes, and no certificate. With a budget a tenth of a reference second it is also the
+// sanitised pass's run of the proof's boxes (ProvesArm3AtHalfTheNormBoundGain takes ten minutes there).
+TEST(PolytopicSearch, AProofPastItsBudgetStopsAtTheSameBoxOnOneCoreAndOnTwo) {
+  const obsgain::Model model = arm3();
+  const double theta = 30.0, gamma = 5.0;
+  std::vector<int> boxes;
+  for (const int threads : {1, 2}) {
+    obsgain::PolytopicSearchOptions o;
+    o.samples = 50;
+    o.proof_budget = 0.1;
+    o.threads = threads;
+    obsgain::PolytopicSearch search(model, model.velocity_bounds, {}, o);
+    const obsgain::PolytopicCertificate cert = search.certificate(theta, theta * theta, gamma);
+    EXPECT_FALSE(cert.exists);
+    const int proved = search.report().proof_boxes;
+    EXPECT_EQ(cert.status, fmt::format("not proven within the proof budget of 0.1 s, {} boxes", proved));
+    EXPECT_GE(search.report().proof_work, 0.1);
+    boxes.push_back(proved);
+  }
+  EXPECT_GT(boxes[0], 100);  // 255 (measured)
+  EXPECT_EQ(boxes[0], boxes[1]);
 }
 
 // The design on it: --certificate polytopic on a 3-joint arm is certified, beats the norm-bound certificates, and
